@@ -1,0 +1,46 @@
+# Two commands do all set-up: `make run` (the simulated G1 and the mode manager) and `make test`.
+# Each brings the venv up to date first and does nothing that has not changed.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMPS := $(VENV)/.stamps
+
+MSG_SOURCES := $(shell find msg_defs -type f)
+
+.PHONY: setup run test lint bench clean
+
+setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets
+
+$(STAMPS)/deps: requirements.txt requirements-nodeps.txt constraints.txt
+	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "Python 3.11 is required, found " + sys.version' 
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q -r requirements.txt -c constraints.txt
+	$(BIN)/python -m pip install -q --no-deps -r requirements-nodeps.txt
+	@mkdir -p $(STAMPS) && touch $@
+
+$(STAMPS)/msgs: $(STAMPS)/deps $(MSG_SOURCES) scripts/build_msgs.sh
+	scripts/build_msgs.sh $(VENV)
+	@touch $@
+
+$(STAMPS)/assets: $(STAMPS)/deps scripts/fetch_assets.py
+	$(BIN)/python scripts/fetch_assets.py $(VENV)
+	@touch $@
+
+$(STAMPS)/package: $(STAMPS)/msgs setup.py setup.cfg package.xml
+	$(BIN)/python -m pip install -q --no-deps --no-build-isolation -e .
+	@touch $@
+
+lint: setup
+	$(BIN)/ruff check .
+
+test: setup lint
+	$(BIN)/python -m pytest
+
+run: setup
+	$(BIN)/g1_demo
+
+bench: setup
+	$(BIN)/python -m bench.run
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,1 @@
+"""Safe control-mode manager for the Unitree G1."""

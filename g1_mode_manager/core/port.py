@@ -1,0 +1,109 @@
+"""The robot port: the only way the core reaches the robot.
+
+The state machine needs only :class:`ModePort`. :class:`RobotPort` adds what the node relays
+(loco commands, arm_sdk and lowcmd frames, robot state). Implementations: the Unitree SDK2 adapter
+(``g1_mode_manager.sdk``) and a fake for unit tests. Every call blocks until the robot answered or
+its timeout passed, and raises :class:`RobotError` on failure; none returns a silent error code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+
+class RobotError(Exception):
+    """A robot call failed: the call's name, the robot's return code, and why."""
+
+    def __init__(self, call: str, code: int, detail: str = "") -> None:
+        from g1_mode_manager.protocol.api_ids import describe_code
+
+        self.call = call
+        self.code = code
+        self.detail = detail
+        text = f"{call} failed: {describe_code(code)}"
+        super().__init__(f"{text}: {detail}" if detail else text)
+
+
+@runtime_checkable
+class ModePort(Protocol):
+    """Mode services and damping: what the mode state machine needs."""
+
+    def connect(self) -> None:
+        """Initialise the SDK connection (DDS domain, clients). Idempotent."""
+
+    def check_mode(self) -> str:
+        """MotionSwitcher CheckMode: the active service's name, '' when released (debug mode)."""
+
+    def select_mode(self, name: str) -> None:
+        """MotionSwitcher SelectMode(name), e.g. 'ai'."""
+
+    def release_mode(self) -> None:
+        """MotionSwitcher ReleaseMode: the robot enters debug mode and goes limp."""
+
+    def damp(self) -> None:
+        """Loco SetFsmId(1), waiting for the robot's answer."""
+
+    def damp_no_reply(self) -> None:
+        """Loco SetFsmId(1) sent without waiting for an answer: the e-stop's first, fastest shot.
+
+        Raises RobotError only if the request could not be sent at all.
+        """
+
+
+@dataclass(frozen=True)
+class SportState:
+    """The last rt/sportmodestate, with its age."""
+
+    fsm_id: int
+    fsm_mode: int
+    task_id: int
+    task_time: float
+    age_s: float
+
+
+@dataclass(frozen=True)
+class MotorCommand:
+    """One motor's command: tau + kp * (q - q_measured) + kd * (dq - dq_measured)."""
+
+    q: float = 0.0
+    dq: float = 0.0
+    tau: float = 0.0
+    kp: float = 0.0
+    kd: float = 0.0
+
+
+@runtime_checkable
+class RobotPort(ModePort, Protocol):
+    """Everything the node sends to or reads from the robot."""
+
+    # --- loco service (sport) --------------------------------------------------------------
+    def set_fsm_id(self, fsm_id: int) -> None: ...
+    def get_fsm_id(self) -> int: ...
+    def get_fsm_mode(self) -> int: ...
+    def set_balance_mode(self, mode: int) -> None: ...
+    def set_speed_mode(self, mode: int) -> None: ...
+    def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None: ...
+
+    # --- streams ---------------------------------------------------------------------------
+    def write_arm_sdk(self, targets: Sequence[MotorCommand], weight: float) -> None:
+        """One rt/arm_sdk frame: 17 targets for motors 12..28 and the blend weight 0..1."""
+
+    def write_lowcmd(self, commands: Sequence[MotorCommand]) -> None:
+        """One rt/lowcmd frame: 29 commands in motor order, mode_machine from rt/lowstate.
+
+        Raises RobotError if no rt/lowstate was seen yet (mode_machine unknown).
+        """
+
+    def sport_state(self) -> SportState | None:
+        """The last rt/sportmodestate, or None if none arrived yet."""
+
+    def lowstate_age_s(self) -> float | None:
+        """Seconds since the last rt/lowstate, or None if none arrived yet."""
+
+    def joint_positions(self) -> Sequence[float] | None:
+        """The 29 measured joint positions of the last rt/lowstate, in motor order."""
+
+    def close(self) -> None:
+        """Stop readers and writers."""

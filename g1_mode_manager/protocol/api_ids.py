@@ -1,0 +1,96 @@
+"""RPC services of the G1: names, versions, api ids and return codes (see G1_FACTS.md section 3)."""
+
+from typing import Final
+
+# --- sport (loco) service; it was "loco" before ai_sport 8.2 -----------------------------------
+LOCO_SERVICE: Final = "sport"
+LOCO_API_VERSION: Final = "1.0.0.0"
+
+LOCO_GET_FSM_ID: Final = 7001
+LOCO_GET_FSM_MODE: Final = 7002
+LOCO_GET_BALANCE_MODE: Final = 7003
+LOCO_GET_SWING_HEIGHT: Final = 7004
+LOCO_GET_STAND_HEIGHT: Final = 7005
+LOCO_GET_PHASE: Final = 7006
+LOCO_SET_FSM_ID: Final = 7101  # {"data": fsm_id}
+LOCO_SET_BALANCE_MODE: Final = 7102  # {"data": 0|1}
+LOCO_SET_SWING_HEIGHT: Final = 7103  # {"data": metres}
+LOCO_SET_STAND_HEIGHT: Final = 7104  # {"data": metres}
+LOCO_SET_VELOCITY: Final = 7105  # {"velocity": [vx m/s, vy m/s, wz rad/s], "duration": s}
+LOCO_SET_ARM_TASK: Final = 7106
+LOCO_SET_SPEED_MODE: Final = 7107  # {"data": 0..3}
+LOCO_SWITCH_TO_USER_CTRL: Final = 7110
+LOCO_SWITCH_TO_INTERNAL_CTRL: Final = 7111
+
+LOCO_GET_APIS: Final = (
+    LOCO_GET_FSM_ID,
+    LOCO_GET_FSM_MODE,
+    LOCO_GET_BALANCE_MODE,
+    LOCO_GET_SWING_HEIGHT,
+    LOCO_GET_STAND_HEIGHT,
+    LOCO_GET_PHASE,
+)
+LOCO_SET_APIS: Final = (
+    LOCO_SET_FSM_ID,
+    LOCO_SET_BALANCE_MODE,
+    LOCO_SET_SWING_HEIGHT,
+    LOCO_SET_STAND_HEIGHT,
+    LOCO_SET_VELOCITY,
+    LOCO_SET_ARM_TASK,
+    LOCO_SET_SPEED_MODE,
+    LOCO_SWITCH_TO_USER_CTRL,
+    LOCO_SWITCH_TO_INTERNAL_CTRL,
+)
+
+#: Move's duration in s: one command lasts this long unless renewed ...
+MOVE_DURATION_S: Final = 1.0
+#: ... or, for a continuous move, 10 days.
+MOVE_CONTINUOUS_DURATION_S: Final = 864000.0
+
+# --- motion switcher service -----------------------------------------------------------------
+MOTION_SWITCHER_SERVICE: Final = "motion_switcher"
+MOTION_SWITCHER_API_VERSION: Final = "1.0.0.1"
+
+MS_CHECK_MODE: Final = 1001  # -> {"form": str, "name": str}; name "" = released (debug mode)
+MS_SELECT_MODE: Final = 1002  # {"name": "ai" | "normal" | "advanced"}
+MS_RELEASE_MODE: Final = 1003
+MS_SET_SILENT: Final = 1004  # {"silent": bool}
+MS_GET_SILENT: Final = 1005  # -> {"silent": bool}
+
+#: The high-level service this package selects.
+HIGH_LEVEL_SERVICE_NAME: Final = "ai"
+
+# --- return codes ------------------------------------------------------------------------------
+OK: Final = 0
+ERR_UNKNOWN: Final = 3001
+ERR_CLIENT_SEND: Final = 3102
+ERR_CLIENT_API_NOT_REG: Final = 3103
+ERR_CLIENT_API_TIMEOUT: Final = 3104
+ERR_CLIENT_API_NOT_MATCH: Final = 3105
+ERR_CLIENT_API_DATA: Final = 3106
+ERR_SERVER_INTERNAL: Final = 3202
+ERR_SERVER_API_NOT_IMPL: Final = 3203
+ERR_SERVER_API_PARAMETER: Final = 3204
+ERR_INVALID_FSM_ID: Final = 7302
+#: Returned by the sim (and, we assume, the robot) for a request the controller refuses in its state.
+ERR_REFUSED_IN_STATE: Final = 7301
+
+CODE_NAMES: Final = {
+    OK: "ok",
+    ERR_UNKNOWN: "unknown error",
+    ERR_CLIENT_SEND: "send error (no server matched)",
+    ERR_CLIENT_API_NOT_REG: "api not registered in client",
+    ERR_CLIENT_API_TIMEOUT: "timeout",
+    ERR_CLIENT_API_NOT_MATCH: "reply does not match the request",
+    ERR_CLIENT_API_DATA: "reply data malformed",
+    ERR_SERVER_INTERNAL: "server internal error",
+    ERR_SERVER_API_NOT_IMPL: "api not implemented (service inactive?)",
+    ERR_SERVER_API_PARAMETER: "bad parameter",
+    ERR_REFUSED_IN_STATE: "refused in the controller's current state",
+    ERR_INVALID_FSM_ID: "invalid fsm id",
+}
+
+
+def describe_code(code: int) -> str:
+    """A human-readable name for an RPC return code, e.g. ``3104 (timeout)``."""
+    return f"{code} ({CODE_NAMES.get(code, 'unknown code')})"

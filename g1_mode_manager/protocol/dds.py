@@ -1,0 +1,84 @@
+"""Cyclone DDS set-up for the Unitree SDK2: robot type compatibility and a loopback-only domain."""
+
+from __future__ import annotations
+
+import threading
+
+from cyclonedds.idl._typesupport.DDS import XTypes
+
+_compat_lock = threading.Lock()
+_compat_applied = False
+
+
+def apply_robot_type_compat() -> None:
+    """Describe uint8/int8 the way the robot's Cyclone DDS 0.10 does.
+
+    cyclonedds-python 11 uses XTypes kinds for uint8/int8 that 0.10 does not know, so a real G1
+    never matches our topics (every RPC answers 3102). With BYTE/CHAR8 the minimal type identifiers
+    equal those compiled into the robot's C++ SDK. Must run before the first topic is created.
+    """
+    global _compat_applied
+    with _compat_lock:
+        if not _compat_applied:
+            XTypes.TK_UINT8 = XTypes.TK_BYTE
+            XTypes.TK_INT8 = XTypes.TK_CHAR8
+            _compat_applied = True
+
+
+def minimal_type_id(idl_type: type) -> str:
+    """Hex of the 14-byte minimal type hash of an IDL type (as in G1_FACTS.md)."""
+    from cyclonedds.idl._xt_builder import XTBuilder
+
+    info, _ = XTBuilder.process_type(idl_type)
+    return bytes(info.minimal.typeid_with_size.type_id.value).hex()
+
+
+LOOPBACK_INTERFACE = "lo"
+
+
+def cyclone_config(interface: str, *, peers: tuple[str, ...] = ()) -> str:
+    """Cyclone DDS XML for one network interface.
+
+    On loopback there is no multicast at all (discovery by unicast to 127.0.0.1 and auto participant
+    indices), so tests never announce themselves onto the machine's network. On a robot interface the
+    robot's own defaults apply (multicast discovery on that interface only).
+    """
+    if interface == LOOPBACK_INTERFACE:
+        peers = peers or ("127.0.0.1",)
+        peer_xml = "".join(f'<Peer address="{p}"/>' for p in peers)
+        return (
+            '<?xml version="1.0" encoding="UTF-8" ?><CycloneDDS><Domain Id="any">'
+            '<General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
+            "<AllowMulticast>false</AllowMulticast></General>"
+            "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60"
+            f"</MaxAutoParticipantIndex><Peers>{peer_xml}</Peers></Discovery>"
+            "</Domain></CycloneDDS>"
+        )
+    return (
+        '<?xml version="1.0" encoding="UTF-8" ?><CycloneDDS><Domain Id="any">'
+        f'<General><Interfaces><NetworkInterface name="{interface}" priority="default" '
+        'multicast="default"/></Interfaces></General></Domain></CycloneDDS>'
+    )
+
+
+def init_channels(domain_id: int, interface: str) -> None:
+    """Initialise the SDK's process-wide DDS domain (idempotent; one domain per process).
+
+    Unlike ``ChannelFactoryInitialize`` this uses our configuration: no trace log in /tmp, and no
+    multicast on loopback. Raises RuntimeError if the domain cannot be created.
+    """
+    from unitree_sdk2py.core import channel as sdk_channel
+
+    apply_robot_type_compat()
+    factory = sdk_channel.ChannelFactory()
+    cls = type(factory)
+    if getattr(cls, "_ChannelFactory__initialized", False):
+        return
+    original = sdk_channel.ChannelConfigHasInterface
+    sdk_channel.ChannelConfigHasInterface = cyclone_config(interface)
+    try:
+        ok = factory.Init(domain_id, interface)
+    finally:
+        sdk_channel.ChannelConfigHasInterface = original
+    if not ok:
+        raise RuntimeError(f"cannot create the Unitree SDK2 DDS domain {domain_id} on interface {interface!r}")

@@ -1,0 +1,46 @@
+"""States (fsm ids) and modes of the G1's built-in locomotion controller."""
+
+from enum import IntEnum
+from typing import Final
+
+
+class FsmId(IntEnum):
+    """Values of SetFsmId / GetFsmId and SportModeState_.fsm_id."""
+
+    ZERO_TORQUE = 0
+    DAMP = 1
+    SQUAT = 2
+    SIT = 3
+    STAND_UP = 4  # lock standing
+    WALK_OLD = 200  # alias of START sent by older SDKs
+    START = 500  # walk (balance stand with gait)
+    START_WAIST = 501  # walk with 3-dof waist
+    LIE_TO_STAND = 702
+    SQUAT_TO_STAND = 706
+    RUN = 801
+
+
+#: Every fsm id SetFsmId accepts; others answer 7302.
+VALID_FSM_IDS: Final = frozenset(int(f) for f in FsmId)
+#: States in which the controller stands or walks (arm_sdk works, velocities act where walking).
+STANDING_FSM_IDS: Final = frozenset({FsmId.STAND_UP, FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST,
+                                     FsmId.LIE_TO_STAND, FsmId.SQUAT_TO_STAND, FsmId.RUN})
+WALKING_FSM_IDS: Final = frozenset({FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST, FsmId.RUN})
+
+
+class FsmMode(IntEnum):
+    """SportModeState_.fsm_mode / GetFsmMode."""
+
+    STATIC = 0  # switching allowed
+    DYNAMIC = 1  # most switches refused; damping always allowed
+
+
+class BalanceMode(IntEnum):
+    """SetBalanceMode: BalanceStand = 0, ContinuousGait(True) = 1."""
+
+    BALANCE_STAND = 0
+    CONTINUOUS_GAIT = 1
+
+
+#: SetSpeedMode 0..3 -> maximum forward speed in m/s.
+SPEED_MODE_MAX_SPEED: Final = {0: 1.0, 1: 1.5, 2: 2.0, 3: 2.7}

@@ -1,0 +1,41 @@
+"""Motor order and joint names of the 29-dof G1 (unitree_hg), defined once."""
+
+from typing import Final
+
+#: Unitree joint names in motor index order (MuJoCo Menagerie joint names are these).
+JOINT_NAMES: Final = (
+    "left_hip_pitch_joint", "left_hip_roll_joint", "left_hip_yaw_joint",
+    "left_knee_joint", "left_ankle_pitch_joint", "left_ankle_roll_joint",
+    "right_hip_pitch_joint", "right_hip_roll_joint", "right_hip_yaw_joint",
+    "right_knee_joint", "right_ankle_pitch_joint", "right_ankle_roll_joint",
+    "waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
+    "left_shoulder_pitch_joint", "left_shoulder_roll_joint", "left_shoulder_yaw_joint",
+    "left_elbow_joint", "left_wrist_roll_joint", "left_wrist_pitch_joint", "left_wrist_yaw_joint",
+    "right_shoulder_pitch_joint", "right_shoulder_roll_joint", "right_shoulder_yaw_joint",
+    "right_elbow_joint", "right_wrist_roll_joint", "right_wrist_pitch_joint", "right_wrist_yaw_joint",
+)  # fmt: skip
+NUM_JOINTS: Final = 29
+JOINT_INDEX: Final = {name: i for i, name in enumerate(JOINT_NAMES)}
+
+#: unitree_hg LowCmd_/LowState_ carry 35 motor slots; the G1 29-dof uses the first 29.
+NUM_MOTOR_SLOTS: Final = 35
+#: LowCmd_.mode_machine of the 29-dof G1 (copy it from rt/lowstate; the robot ignores a mismatch).
+MODE_MACHINE_G1_29DOF: Final = 5
+#: LowCmd_.mode_pr: 0 = PR (pitch/roll ankle) mode.
+MODE_PR: Final = 0
+#: MotorCmd_.mode: 1 = enabled, 0 = disabled.
+MOTOR_ENABLED: Final = 1
+MOTOR_DISABLED: Final = 0
+
+#: rt/arm_sdk commands motors 12..28 (waist and arms); motor_cmd[29].q is the blend weight 0..1.
+ARM_SDK_JOINTS: Final = tuple(range(12, 29))
+ARM_SDK_JOINT_NAMES: Final = tuple(JOINT_NAMES[i] for i in ARM_SDK_JOINTS)
+ARM_SDK_WEIGHT_INDEX: Final = 29
+
+#: Effort limits in N m, by motor index (G1_FACTS.md section 4).
+_LEG = (88.0, 139.0, 88.0, 139.0, 50.0, 50.0)
+_ARM = (25.0, 25.0, 25.0, 25.0, 25.0, 5.0, 5.0)
+EFFORT_LIMIT_NM: Final = (*_LEG, *_LEG, 88.0, 50.0, 50.0, *_ARM, *_ARM)
+
+#: Damping gain used when a joint must go soft (kp 0), N m s / rad.
+DAMPING_KD: Final = 8.0

@@ -1,0 +1,12 @@
+"""DDS topic names of the G1 (the SDK's ``rt/`` prefix; ROS 2 sees them without it)."""
+
+from typing import Final
+
+LOWCMD: Final = "rt/lowcmd"
+LOWSTATE: Final = "rt/lowstate"
+ARM_SDK: Final = "rt/arm_sdk"
+SPORTMODESTATE: Final = "rt/sportmodestate"
+
+#: Rates of the robot's state topics in Hz.
+LOWSTATE_RATE_HZ: Final = 500.0
+SPORTMODESTATE_RATE_HZ: Final = 50.0
