@@ -1,0 +1,1 @@
+"""Test support: domain allocation and subprocess management."""
