@@ -8,7 +8,7 @@ its timeout passed, and raises :class:`RobotError` on failure; none returns a si
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -98,6 +98,9 @@ class RobotPort(ModePort, Protocol):
 
     def sport_state(self) -> SportState | None:
         """The last rt/sportmodestate, or None if none arrived yet."""
+
+    def set_sport_state_listener(self, listener: Callable[[SportState], None] | None) -> None:
+        """Call `listener` (from a DDS thread) with every rt/sportmodestate sample; None removes it."""
 
     def lowstate_age_s(self) -> float | None:
         """Seconds since the last rt/lowstate, or None if none arrived yet."""
