@@ -1,0 +1,72 @@
+"""The transition table: every legal mode change as data, and an explicit reason for every other one.
+
+The table is the whole policy; :class:`~g1_mode_manager.core.machine.ModeMachine` only executes the
+steps listed here. Same-mode requests (other than a repeated e-stop) are refused with "already in X":
+a caller that needs idempotence reads the mode from the outcome.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+from g1_mode_manager.core.modes import Mode
+
+
+class Step(Enum):
+    """What a transition does to the robot, in order."""
+
+    CONNECT = "connect"  # initialise the SDK connection (only the first transition)
+    ENSURE_SERVICE_ACTIVE = "ensure_service_active"  # CheckMode; SelectMode("ai") only if released; confirm
+    RELEASE_SERVICE = "release_service"  # ReleaseMode until CheckMode reports "" (official low-level entry)
+    ESTOP = "estop"  # DampNoReply, ensure the service is active, Damp (see ModeMachine.estop)
+
+
+@dataclass(frozen=True)
+class Transition:
+    """One legal (source, target) pair, the robot steps it takes and what it means for the operator."""
+
+    source: Mode
+    target: Mode
+    steps: tuple[Step, ...]
+    description: str
+
+
+_U, _I, _H, _L, _E = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY
+_CONNECT, _ACTIVE, _RELEASE = Step.CONNECT, Step.ENSURE_SERVICE_ACTIVE, Step.RELEASE_SERVICE
+
+# fmt: off
+TRANSITIONS: tuple[Transition, ...] = (
+    Transition(_U, _I, (_CONNECT,),          "connected; nothing is forwarded"),
+    Transition(_U, _H, (_CONNECT, _ACTIVE),  "connected; high-level service active"),
+    Transition(_U, _L, (_CONNECT, _RELEASE), "connected; high-level service released, robot limp"),
+    Transition(_I, _H, (_ACTIVE,),           "high-level service active"),
+    Transition(_I, _L, (_RELEASE,),          "high-level service released, robot limp"),
+    Transition(_H, _I, (),                   "forwarding stopped (the node sends StopMove)"),
+    Transition(_H, _L, (_RELEASE,),          "high-level service released, robot limp"),
+    Transition(_L, _I, (),                   "forwarding stopped; robot stays released (limp, debug mode)"),
+    Transition(_L, _H, (_ACTIVE,),           "high-level service active"),
+    *(Transition(m, _E, (Step.ESTOP,),       "e-stop: damping") for m in Mode),
+)
+# fmt: on
+
+TABLE: dict[tuple[Mode, Mode], Transition] = {(t.source, t.target): t for t in TRANSITIONS}
+
+
+def lookup(source: Mode, target: Mode) -> Transition | str:
+    """The legal transition from source to target, or the reason it is refused.
+
+    Every one of the 25 pairs is either in the table or matched by an explicit refusal below;
+    a pair matched by neither is a bug in this module and raises AssertionError.
+    """
+    legal = TABLE.get((source, target))
+    if legal is not None:
+        return legal
+    match (source, target):
+        case (Mode.EMERGENCY, _):
+            return "nothing leaves EMERGENCY: make the robot safe, then restart the mode manager"
+        case (s, t) if s is t:
+            return f"already in {s.name}; nothing to do"
+        case (_, Mode.UNINITIALIZED):
+            return "nothing goes back to UNINITIALIZED; request IDLE to stop forwarding"
+    raise AssertionError(f"transition table has no rule for {source.name} -> {target.name}")

@@ -1,0 +1,1 @@
+"""Test doubles for the robot port and for time."""
