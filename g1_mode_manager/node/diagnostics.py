@@ -1,0 +1,60 @@
+"""/diagnostics for the mode manager: link health, mode, and command counters."""
+
+from __future__ import annotations
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.records import MachineStatus
+from g1_mode_manager.node.link import LinkReport
+
+
+def _kv(key: str, value: object) -> KeyValue:
+    return KeyValue(key=key, value="" if value is None else (f"{value:.3f}" if isinstance(value, float) else str(value)))
+
+
+def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: LinkReport,
+                      counts: dict[str, int]) -> DiagnosticArray:
+    """Three statuses: the robot link (ERROR when lost), the mode, and the command streams."""
+    link_status = DiagnosticStatus(name="g1_mode_manager: robot link", hardware_id=hardware_id)
+    if not link.connected:
+        link_status.level, link_status.message = DiagnosticStatus.OK, link.reason
+    elif link.ok:
+        link_status.level, link_status.message = DiagnosticStatus.OK, "rt/lowstate and rt/sportmodestate fresh"
+    else:
+        link_status.level, link_status.message = DiagnosticStatus.ERROR, f"robot link lost: {link.reason}; forwarding stopped"
+    link_status.values = [
+        _kv("lowstate_age_s", link.lowstate_age_s),
+        _kv("sportmodestate_age_s", link.sportstate_age_s),
+        _kv("rpc_failures", counts.get("rpc_failures", 0)),
+    ]
+
+    mode_status = DiagnosticStatus(name="g1_mode_manager: mode", hardware_id=hardware_id)
+    if status.mode is Mode.EMERGENCY:
+        mode_status.level = DiagnosticStatus.OK if status.damp_confirmed else DiagnosticStatus.ERROR
+        mode_status.message = (
+            "EMERGENCY, damped" if status.damp_confirmed else "EMERGENCY, Damp not confirmed: call ~/estop again"
+        )
+    else:
+        mode_status.level, mode_status.message = DiagnosticStatus.OK, status.mode.name
+    mode_status.values = [
+        _kv("mode", status.mode.name),
+        _kv("transition_in_progress", status.transition_in_progress),
+        _kv("high_level_service", "unknown" if not status.service_known else
+            ("active" if status.service_active else "released")),
+        _kv("last_refusal", status.last_refusal),
+        _kv("last_error", status.last_error),
+    ]
+
+    refused = sum(v for k, v in counts.items() if k.endswith(("_dropped", "_rejected")))
+    streams = DiagnosticStatus(name="g1_mode_manager: commands", hardware_id=hardware_id)
+    streams.level = DiagnosticStatus.OK
+    streams.message = f"{refused} commands dropped or rejected"
+    streams.values = [_kv(k, v) for k, v in sorted(counts.items())]
+    return DiagnosticArray(header=_header(stamp), status=[link_status, mode_status, streams])
+
+
+def _header(stamp):
+    from std_msgs.msg import Header
+
+    return Header(stamp=stamp)

@@ -1,0 +1,74 @@
+"""The e-stop endpoints, on their own node and executor thread so that they always get through.
+
+The main node's executor threads may all be busy (a slow SelectMode, a flood of service calls);
+the e-stop service and topic are served by a separate single-threaded executor and call the mode
+machine's estop(), which never waits for a transition in flight.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
+
+from g1_mode_manager.core.records import Outcome
+
+
+class EstopEndpoint:
+    """Serves `<main node>/estop` (std_srvs/Trigger) and listens to `/estop` (std_msgs/Bool, true = stop)."""
+
+    def __init__(self, main: Node, estop: Callable[[], Outcome]) -> None:
+        self._estop = estop
+        self._log = main.get_logger()
+        self.node = rclpy.create_node(
+            main.get_name() + "_estop",
+            namespace=main.get_namespace(),
+            context=main.context,
+            start_parameter_services=False,
+        )
+        self.service_name = main.get_fully_qualified_name() + "/estop"
+        self.node.create_service(Trigger, self.service_name, self._on_trigger)
+        self.node.create_subscription(Bool, "/estop", self._on_topic, QoSProfile(depth=10,
+                                      reliability=ReliabilityPolicy.RELIABLE))
+        self._executor = SingleThreadedExecutor(context=main.context)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name="estop_executor", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self._executor.spin()
+        except ExternalShutdownException:
+            pass
+
+    def shutdown(self) -> None:
+        self._executor.shutdown()
+        self._thread.join(5.0)
+        self.node.destroy_node()
+
+    def _run(self, source: str) -> Outcome:
+        self._log.warn(f"E-STOP requested via {source}")
+        outcome = self._estop()
+        if outcome.success:
+            self._log.warn(f"E-STOP done in {outcome.duration_s * 1000:.0f} ms: {outcome.message}")
+        else:
+            self._log.error(f"E-STOP incomplete after {outcome.duration_s * 1000:.0f} ms: {outcome.message}")
+        return outcome
+
+    def _on_trigger(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        outcome = self._run(self.service_name)
+        response.success = outcome.success
+        response.message = outcome.message
+        return response
+
+    def _on_topic(self, msg: Bool) -> None:
+        if msg.data:
+            self._run("/estop topic")

@@ -1,0 +1,48 @@
+"""Health of the robot link: are the robot's state streams fresh enough to forward commands?"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.relay.gate import ModeGate
+
+
+@dataclass(frozen=True)
+class LinkReport:
+    ok: bool
+    connected: bool
+    lowstate_age_s: float | None
+    sportstate_age_s: float | None
+    reason: str
+
+
+class LinkHealth:
+    """rt/lowstate must be fresh in every connected mode; rt/sportmodestate too in HIGH_LEVEL.
+
+    Before the first transition nothing is connected: not an error, but nothing may be forwarded.
+    """
+
+    def __init__(self, port: RobotPort, gate: ModeGate, timeout_s: float) -> None:
+        self._port = port
+        self._gate = gate
+        self._timeout_s = timeout_s
+
+    def report(self) -> LinkReport:
+        mode = self._gate.mode
+        if mode is Mode.UNINITIALIZED:
+            return LinkReport(False, False, None, None, "not connected yet (UNINITIALIZED)")
+        low = self._port.lowstate_age_s()
+        sport_state = self._port.sport_state()
+        sport = None if sport_state is None else sport_state.age_s
+        if low is None or low > self._timeout_s:
+            text = "never received" if low is None else f"{low:.2f} s old"
+            return LinkReport(False, True, low, sport, f"rt/lowstate {text}")
+        if mode is Mode.HIGH_LEVEL and (sport is None or sport > self._timeout_s):
+            text = "never received" if sport is None else f"{sport:.2f} s old"
+            return LinkReport(False, True, low, sport, f"rt/sportmodestate {text}")
+        return LinkReport(True, True, low, sport, "ok")
+
+    def link_ok(self) -> bool:
+        return self.report().ok

@@ -1,0 +1,80 @@
+"""The built-in controller's posture/locomotion commands, as reachable from ROS, and their rules."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import RobotError, RobotPort
+from g1_mode_manager.protocol.fsm import FsmId, FsmMode
+
+
+@dataclass(frozen=True)
+class LocoResult:
+    success: bool
+    message: str
+    code: int = 0
+
+
+def _fsm(fsm_id: FsmId) -> Callable[[RobotPort, int], None]:
+    return lambda port, _value: port.set_fsm_id(int(fsm_id))
+
+
+def _speed_mode(port: RobotPort, value: int) -> None:
+    port.set_speed_mode(value)
+
+
+def _continuous_gait(port: RobotPort, value: int) -> None:
+    port.set_balance_mode(1 if value else 0)
+
+
+COMMANDS: dict[str, Callable[[RobotPort, int], None]] = {
+    "damp": _fsm(FsmId.DAMP),
+    "zero_torque": _fsm(FsmId.ZERO_TORQUE),
+    "squat": _fsm(FsmId.SQUAT),
+    "sit": _fsm(FsmId.SIT),
+    "stand_up": _fsm(FsmId.STAND_UP),
+    "start": _fsm(FsmId.START),
+    "balance_stand": lambda port, _value: port.set_balance_mode(0),
+    "continuous_gait": _continuous_gait,
+    "speed_mode": _speed_mode,
+}
+
+_VALUE_RANGES = {"continuous_gait": range(0, 2), "speed_mode": range(0, 4)}
+
+
+def run_loco_command(port: RobotPort, mode: Mode, allows_loco: bool, command: str, value: int) -> LocoResult:
+    """Check the command against the mode and the robot's state, then send it.
+
+    Damping is allowed wherever the sport service can answer (every connected mode but LOW_LEVEL);
+    everything else only in HIGH_LEVEL (with no transition in flight) and only while the robot is
+    static (fsm_mode 0), as the robot itself would refuse most switches while dynamic.
+    """
+    name = command.strip().lower()
+    action = COMMANDS.get(name)
+    if action is None:
+        return LocoResult(False, f"unknown command {command!r}; valid: {', '.join(COMMANDS)}")
+    if name in _VALUE_RANGES and value not in _VALUE_RANGES[name]:
+        r = _VALUE_RANGES[name]
+        return LocoResult(False, f"{name} takes a value from {r.start} to {r.stop - 1}, got {value}")
+    if name == "damp":
+        if mode is Mode.UNINITIALIZED:
+            return LocoResult(False, "not connected to the robot yet (UNINITIALIZED): use ~/estop or set a mode first")
+        if mode is Mode.LOW_LEVEL:
+            return LocoResult(False, "LOW_LEVEL: the sport service is released, damping is impossible; use ~/estop, "
+                                     "which re-selects the service and then damps")
+    else:
+        if not allows_loco:
+            return LocoResult(False, f"mode is {mode.name}: loco commands are allowed only in HIGH_LEVEL "
+                                     "(and not during a transition)")
+        state = port.sport_state()
+        if state is None:
+            return LocoResult(False, "no rt/sportmodestate received: the robot's state is unknown")
+        if state.fsm_mode == FsmMode.DYNAMIC:
+            return LocoResult(False, "the robot is dynamic (fsm_mode 1): only damp is allowed; stop it first")
+    try:
+        action(port, value)
+    except RobotError as exc:
+        return LocoResult(False, str(exc), exc.code)
+    return LocoResult(True, f"{name} sent" + (f" (value {value})" if name in _VALUE_RANGES else ""))

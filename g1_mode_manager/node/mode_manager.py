@@ -1,0 +1,221 @@
+"""The g1_mode_manager node: ROS plumbing around the mode machine, the relays and the robot port."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+
+from diagnostic_msgs.msg import DiagnosticArray
+from g1_mode_manager_msgs.msg import JointCommand, SportModeState
+from g1_mode_manager_msgs.msg import Mode as ModeMsg
+from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from geometry_msgs.msg import Twist
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from g1_mode_manager.core.machine import ModeMachine
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import RobotPort, SportState
+from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
+from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.node.diagnostics import build_diagnostics
+from g1_mode_manager.node.estop import EstopEndpoint
+from g1_mode_manager.node.link import LinkHealth
+from g1_mode_manager.node.loco_commands import run_loco_command
+from g1_mode_manager.node.settings import Settings, declare_settings
+from g1_mode_manager.relay.arm import ArmRelay
+from g1_mode_manager.relay.cmd_vel import CmdVelRelay
+from g1_mode_manager.relay.events import RelayEvents
+from g1_mode_manager.relay.lowcmd import LowCmdRelay
+from g1_mode_manager.relay.periodic import PeriodicWorker
+
+PortFactory = Callable[[Settings], RobotPort]
+
+#: ~/mode: a late `ros2 topic echo` still sees the current mode.
+MODE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def unitree_port(settings: Settings) -> RobotPort:
+    """The real robot port: Unitree SDK2 over Cyclone DDS (connects on the first transition)."""
+    from g1_mode_manager.sdk.robot import UnitreeRobot
+
+    return UnitreeRobot(settings.dds_domain, settings.network_interface, rpc_timeout_s=settings.rpc_timeout_s,
+                        select_timeout_s=settings.select_timeout_s)
+
+
+class ModeManagerNode(Node):
+    """Serves ~/set_mode, ~/loco_command, ~/estop; relays /cmd_vel, ~/arm_cmd, ~/lowcmd; publishes state."""
+
+    def __init__(self, *, port_factory: PortFactory = unitree_port, node_name: str = "g1_mode_manager",
+                 **kwargs) -> None:
+        super().__init__(node_name, **kwargs)
+        self.settings = s = declare_settings(self)
+        self._port = port_factory(s)
+        self._mirroring = False
+        self._mirror_lock = threading.Lock()
+        self._events = RelayEvents(self._relay_log)
+        self.machine = ModeMachine(
+            self._port,
+            release_timeout_s=s.release_timeout_s,
+            select_timeout_s=s.select_timeout_s,
+            on_record=self._on_record,
+            on_change=self._on_change,
+        )
+        self._link = LinkHealth(self._port, self.machine, s.link_timeout_s)
+
+        self._mode_pub = self.create_publisher(ModeMsg, "~/mode", MODE_QOS)
+        self._sport_pub = self.create_publisher(SportModeState, "~/sportmodestate", 10)
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+
+        services = ReentrantCallbackGroup()  # a busy transition refuses others at once instead of queueing them
+        self.create_service(SetMode, "~/set_mode", self._on_set_mode, callback_group=services)
+        self.create_service(LocoCommand, "~/loco_command", self._on_loco_command, callback_group=services)
+
+        limits = VelocityLimits(s.max_vx, s.max_vy, s.max_wz, s.max_ax, s.max_ay, s.max_aw)
+        self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=limits,
+                                    timeout_s=s.cmd_vel_timeout, move_duration_s=s.move_duration_s)
+        self._arm = ArmRelay(self._port, self.machine, self._link, self._events, ramp_time_s=s.arm_ramp_time_s,
+                             silence_timeout_s=s.arm_cmd_timeout_s, kp=s.arm_kp, kd=s.arm_kd)
+        self._lowcmd = LowCmdRelay(self._port, self.machine, self._link, self._events,
+                                   silence_timeout_s=s.lowcmd_timeout_s)
+        streams = MutuallyExclusiveCallbackGroup()
+        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10, callback_group=streams)
+        self.create_subscription(JointState, "~/arm_cmd", self._on_arm_cmd, 10, callback_group=streams)
+        self.create_subscription(JointCommand, "~/lowcmd", self._on_lowcmd, 10, callback_group=streams)
+
+        timers = MutuallyExclusiveCallbackGroup()
+        self.create_timer(1.0 / s.mode_publish_rate_hz, self._publish_mode, callback_group=timers)
+        self.create_timer(1.0 / s.diagnostics_rate_hz, self._publish_diagnostics, callback_group=timers)
+
+        self._workers = [
+            PeriodicWorker("cmd_vel_relay", s.cmd_vel_rate_hz, self._cmd_vel.tick, self._worker_error),
+            PeriodicWorker("arm_relay", s.arm_rate_hz, self._arm.tick, self._worker_error),
+            PeriodicWorker("lowcmd_relay", s.lowcmd_damping_rate_hz, self._lowcmd.tick, self._worker_error),
+        ]
+        for worker in self._workers:
+            worker.start()
+        self._estop = EstopEndpoint(self, self.machine.estop)
+        self._estop.start()
+        self._publish_mode()
+        self.get_logger().info(
+            f"ready in {self.machine.mode.name}; robot side: interface {s.network_interface!r}, DDS domain "
+            f"{s.dds_domain}; e-stop: {self._estop.service_name} and /estop")
+
+    # --- lifecycle -----------------------------------------------------------------------------
+    def shutdown(self) -> None:
+        """Stop relays and the e-stop executor, close the robot port. Call before destroy_node()."""
+        for worker in self._workers:
+            worker.stop()
+        self._estop.shutdown()
+        if self._mirroring:
+            self._port.set_sport_state_listener(None)
+        self._port.close()
+
+    # --- services ------------------------------------------------------------------------------
+    def _on_set_mode(self, request: SetMode.Request, response: SetMode.Response) -> SetMode.Response:
+        try:
+            if request.mode_name.strip():
+                target = Mode.parse(request.mode_name)
+            elif request.mode == Mode.UNINITIALIZED:
+                raise ValueError("no mode given: set mode_name (e.g. 'high_level') or mode (1 IDLE, 2 HIGH_LEVEL, "
+                                 "3 LOW_LEVEL, 4 EMERGENCY); UNINITIALIZED cannot be requested")
+            else:
+                target = Mode.from_value(request.mode)
+        except ValueError as exc:
+            self._events.count("set_mode_invalid")
+            self.get_logger().warn(f"set_mode refused: {exc}")
+            return self._fill_set_mode(response, False, str(exc))
+        outcome = self.machine.request(target)
+        return self._fill_set_mode(response, outcome.success, outcome.message)
+
+    def _fill_set_mode(self, response: SetMode.Response, success: bool, message: str) -> SetMode.Response:
+        response.success = success
+        response.message = message
+        response.mode = int(self.machine.mode)
+        response.mode_name = self.machine.mode.name
+        return response
+
+    def _on_loco_command(self, request: LocoCommand.Request, response: LocoCommand.Response) -> LocoCommand.Response:
+        result = run_loco_command(self._port, self.machine.mode, self.machine.allows_loco_commands(),
+                                  request.command, request.value)
+        if result.success:
+            self.get_logger().info(f"loco_command: {result.message}")
+        else:
+            self._events.count("loco_command_refused")
+            self.get_logger().warn(f"loco_command {request.command!r} refused: {result.message}")
+        response.success, response.message, response.code = result.success, result.message, result.code
+        return response
+
+    # --- command streams -------------------------------------------------------------------------
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        self._cmd_vel.submit(msg.linear.x, msg.linear.y, msg.angular.z)
+
+    def _on_arm_cmd(self, msg: JointState) -> None:
+        self._arm.submit(list(msg.name), list(msg.position))
+
+    def _on_lowcmd(self, msg: JointCommand) -> None:
+        self._lowcmd.submit(list(msg.name), list(msg.q), list(msg.dq), list(msg.tau), list(msg.kp), list(msg.kd))
+
+    # --- state out -------------------------------------------------------------------------------
+    def _mirror_sport_state(self, state: SportState) -> None:
+        self._sport_pub.publish(SportModeState(stamp=self.get_clock().now().to_msg(), fsm_id=state.fsm_id,
+                                               fsm_mode=state.fsm_mode, task_id=state.task_id,
+                                               task_time=state.task_time))
+
+    def _on_change(self, status: MachineStatus) -> None:
+        if not self._mirroring and status.mode is not Mode.UNINITIALIZED:
+            self._start_mirror()
+        self._publish_mode(status)
+
+    def _start_mirror(self) -> None:
+        """Mirror rt/sportmodestate once the port is connected (the first transition connects it)."""
+        with self._mirror_lock:
+            if self._mirroring:
+                return
+            try:
+                self._port.set_sport_state_listener(self._mirror_sport_state)
+            except Exception as exc:  # not connected after all (connect failed): retried on the next change
+                self.get_logger().warn(f"cannot mirror rt/sportmodestate yet: {exc}")
+                return
+            self._mirroring = True
+
+    def _publish_mode(self, status: MachineStatus | None = None) -> None:
+        status = status or self.machine.status()
+        self._mode_pub.publish(ModeMsg(
+            stamp=self.get_clock().now().to_msg(),
+            mode=int(status.mode),
+            name=status.mode.name,
+            transition_in_progress=status.transition_in_progress,
+            transition_target=int(status.transition_target if status.transition_target is not None else status.mode),
+            high_level_service_known=status.service_known,
+            high_level_service_active=status.service_active,
+            damp_confirmed=status.damp_confirmed,
+            link_ok=self._link.link_ok(),
+            last_refusal=status.last_refusal,
+            last_error=status.last_error,
+        ))
+
+    def _publish_diagnostics(self) -> None:
+        self._diag_pub.publish(build_diagnostics(self.get_clock().now().to_msg(), self.get_fully_qualified_name(),
+                                                 self.machine.status(), self._link.report(), self._events.counts()))
+
+    # --- logging ---------------------------------------------------------------------------------
+    def _on_record(self, record: TransitionRecord) -> None:
+        text = (f"transition {record.source.name} -> {record.target.name}: {record.outcome.value} in "
+                f"{record.duration_s * 1000:.0f} ms: {record.message}")
+        if record.outcome is Result.OK:
+            self.get_logger().info(text)
+        elif record.outcome is Result.REFUSED:
+            self.get_logger().warn(text)
+        else:
+            self.get_logger().error(text)
+
+    def _relay_log(self, level: str, text: str) -> None:
+        logger = self.get_logger()
+        {"info": logger.info, "warn": logger.warn}.get(level, logger.error)(text)
+
+    def _worker_error(self, exc: BaseException) -> None:
+        self._events.count("relay_errors")
+        self.get_logger().error(f"relay error (relay keeps running): {exc!r}")

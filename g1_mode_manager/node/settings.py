@@ -1,0 +1,84 @@
+"""Parameters of the mode manager node, declared up front with descriptions and ranges."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.node import Node
+
+
+@dataclass(frozen=True)
+class Settings:
+    network_interface: str = "lo"
+    dds_domain: int = 0
+    rpc_timeout_s: float = 1.0
+    select_timeout_s: float = 10.0
+    release_timeout_s: float = 5.0
+    cmd_vel_timeout: float = 0.5
+    cmd_vel_rate_hz: float = 20.0
+    move_duration_s: float = 1.0
+    max_vx: float = 0.8
+    max_vy: float = 0.4
+    max_wz: float = 1.0
+    max_ax: float = 1.5
+    max_ay: float = 1.0
+    max_aw: float = 3.0
+    arm_ramp_time_s: float = 2.0
+    arm_cmd_timeout_s: float = 1.0
+    arm_rate_hz: float = 50.0
+    arm_kp: float = 60.0
+    arm_kd: float = 1.5
+    lowcmd_timeout_s: float = 0.1
+    lowcmd_damping_rate_hz: float = 50.0
+    link_timeout_s: float = 0.5
+    mode_publish_rate_hz: float = 1.0
+    diagnostics_rate_hz: float = 1.0
+
+
+_DESCRIPTIONS: dict[str, str] = {
+    "network_interface": "Network interface of the robot side (Unitree SDK2 / Cyclone DDS): 'lo' for the sim, "
+    "e.g. 'eth0' for a real G1. Read at start.",
+    "dds_domain": "Cyclone DDS domain of the robot side (a real G1 uses 0). Read at start.",
+    "rpc_timeout_s": "Timeout of one robot RPC (loco and motion switcher calls), s.",
+    "select_timeout_s": "How long SelectMode('ai') plus its confirmation may take, s (a real robot takes seconds).",
+    "release_timeout_s": "How long ReleaseMode may take until CheckMode reports no service, s.",
+    "cmd_vel_timeout": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
+    "cmd_vel_rate_hz": "Rate at which the latest /cmd_vel is sent as Move, Hz.",
+    "move_duration_s": "Duration of each Move: the robot stops by itself if no newer Move arrives, s.",
+    "max_vx": "Clamp of forward velocity, m/s.",
+    "max_vy": "Clamp of lateral velocity, m/s.",
+    "max_wz": "Clamp of yaw rate, rad/s.",
+    "max_ax": "Forward acceleration limit, m/s^2.",
+    "max_ay": "Lateral acceleration limit, m/s^2.",
+    "max_aw": "Yaw acceleration limit, rad/s^2.",
+    "arm_ramp_time_s": "Time for the rt/arm_sdk blend weight to go 0 -> 1 or 1 -> 0, s.",
+    "arm_cmd_timeout_s": "No ~/arm_cmd for this long ramps the arms back to the controller, s.",
+    "arm_rate_hz": "Rate of rt/arm_sdk frames while the weight is above zero, Hz.",
+    "arm_kp": "Stiffness of arm_sdk targets, N m/rad.",
+    "arm_kd": "Damping of arm_sdk targets, N m s/rad.",
+    "lowcmd_timeout_s": "No ~/lowcmd for this long in LOW_LEVEL sends damping frames (kp 0, kd > 0), s.",
+    "lowcmd_damping_rate_hz": "Rate of damping frames while ~/lowcmd is silent in LOW_LEVEL, Hz.",
+    "link_timeout_s": "rt/lowstate (and in HIGH_LEVEL rt/sportmodestate) older than this = link lost, s.",
+    "mode_publish_rate_hz": "Rate at which ~/mode is re-published besides every change, Hz.",
+    "diagnostics_rate_hz": "Rate of /diagnostics, Hz.",
+}
+
+
+def _descriptor(name: str, default: object) -> ParameterDescriptor:
+    desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=True)
+    if isinstance(default, float):
+        desc.floating_point_range = [FloatingPointRange(from_value=1e-3, to_value=1e6)]
+    elif isinstance(default, int) and name == "dds_domain":
+        desc.integer_range = [IntegerRange(from_value=0, to_value=230, step=1)]
+    return desc
+
+
+def declare_settings(node: Node) -> Settings:
+    """Declare every parameter (read-only: they are read once at start) and return their values."""
+    values = {}
+    for f in fields(Settings):
+        default = f.default
+        node.declare_parameter(f.name, default, _descriptor(f.name, default))
+        values[f.name] = node.get_parameter(f.name).value
+    return Settings(**values)
