@@ -1,0 +1,466 @@
+"""SimG1: the simulated robot as the DDS bridge sees it (sport service, motion switcher, streams, state).
+
+One lock guards everything: RPC handlers call in from other threads while a loop thread calls
+:meth:`SimG1.step`. Switching rules live in :mod:`g1_sim.firmware.rules`; torques come from the
+controllers in :mod:`g1_sim.physics.controllers`; this module wires the two to the physics.
+
+Boot: by default the robot starts *standing* in lock-stand (fsm 4) with the "ai" service selected,
+because that is what a user of the sim wants first. ``start_fsm=0``/``1`` boots limp or damping,
+``start_service=""`` boots straight into debug mode (as some robots do).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from pathlib import Path
+from typing import Final
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike
+
+from g1_mode_manager.protocol.api_ids import (
+    ERR_INVALID_FSM_ID,
+    ERR_REFUSED_IN_STATE,
+    ERR_SERVER_API_NOT_IMPL,
+    ERR_SERVER_API_PARAMETER,
+    OK,
+)
+from g1_mode_manager.protocol.fsm import (
+    SPEED_MODE_MAX_SPEED,
+    STANDING_FSM_IDS,
+    WALKING_FSM_IDS,
+    BalanceMode,
+    FsmId,
+    FsmMode,
+)
+from g1_mode_manager.protocol.motors import MODE_MACHINE_G1_29DOF, NUM_JOINTS
+from g1_sim.assets import assets_dir, policy_onnx
+from g1_sim.firmware import rules
+from g1_sim.firmware.state import BasePose, LowStateSnapshot, quat_to_rpy
+from g1_sim.physics.controllers import (
+    ArmSdkBlend,
+    Controller,
+    DampController,
+    LocomotionController,
+    LowLevelController,
+    PostureHarness,
+    Sensed,
+    StandUpSequence,
+    ZeroTorqueController,
+)
+from g1_sim.physics.model import DEFAULT_POSE, G1Model, build_model, standing_qpos
+from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
+
+log = logging.getLogger("g1_sim.firmware")
+
+#: Names SelectMode accepts; CheckMode answers (FORM, name).
+SERVICE_NAMES: Final = frozenset({"ai", "normal", "advanced"})
+FORM: Final = "0"
+#: Stand and swing heights reported before any Set*Height, m.
+DEFAULT_STAND_HEIGHT_M: Final = 0.75
+DEFAULT_SWING_HEIGHT_M: Final = 0.08
+#: The policy was trained on commands in [-1, 1] (ONNX metadata), so faster requests are clamped.
+POLICY_MAX_COMMAND: Final = 1.0
+#: Fall detector: pelvis below this and tilted more than FALL_TILT_RAD.
+FALL_HEIGHT_M: Final = 0.4
+FALL_TILT_RAD: Final = 0.8
+
+
+def _posture(hip: float, knee: float, ankle: float) -> np.ndarray:
+    pose = DEFAULT_POSE.copy()
+    pose[[0, 6]] = hip
+    pose[[3, 9]] = knee
+    pose[[4, 10]] = ankle
+    return pose
+
+
+SQUAT_POSE: Final = _posture(-1.0, 1.87, -0.87)
+SIT_POSE: Final = _posture(-1.6, 2.4, -0.8)
+
+_models: dict[Path, G1Model] = {}
+_models_lock = threading.Lock()
+
+
+def shared_model(root: Path) -> G1Model:
+    """Compile once per process (meshes take ~2 s); every SimG1 then gets its own MjData."""
+    with _models_lock:
+        if root not in _models:
+            _models[root] = build_model(root)
+        return _models[root]
+
+
+class SimG1:
+    """The simulated G1 and its firmware rules. Return values are RPC codes of ``protocol.api_ids``."""
+
+    def __init__(self, assets: str | Path | None = None, *, start_fsm: int = FsmId.STAND_UP,
+                 start_service: str = "ai", seed: int = 0) -> None:
+        root = assets_dir(assets).resolve()
+        self._g1 = shared_model(root)
+        self._data = mujoco.MjData(self._g1.model)
+        self._g1.reset(self._data)
+        if seed:  # seed 0 boots exactly in the keyframe; others jitter the joints a little (N(0, 5 mrad))
+            self._data.qpos[7 : 7 + NUM_JOINTS] += np.random.default_rng(seed).normal(0.0, 0.005, NUM_JOINTS)
+            mujoco.mj_forward(self._g1.model, self._data)
+        self._s = Sensed(self._g1, self._data)
+        self._lock = threading.RLock()
+        self.dt: float = float(self._g1.model.opt.timestep)
+        self._decimation = round(1.0 / (RATE_HZ * self.dt))
+        self._steps = 0
+
+        policy = LocomotionPolicy(policy_onnx(root))
+        self._loco = LocomotionController(policy)
+        self._zero = ZeroTorqueController()
+        self._damp = DampController()
+        self._lowlevel = LowLevelController()
+        self._arm = ArmSdkBlend()
+        self._squat = PostureHarness(self._g1, SQUAT_POSE, float(standing_qpos(self._g1.model, SQUAT_POSE)[2]))
+        self._sit = PostureHarness(self._g1, SIT_POSE, float(standing_qpos(self._g1.model, SIT_POSE)[2]))
+        self._stand_up = StandUpSequence(self._g1, self._loco, float(self._g1.model.key_qpos[self._g1.stand_key][2]))
+        self._ctrl: Controller = self._zero
+
+        self._service = ""
+        self._silent = False
+        self._fsm = int(FsmId.ZERO_TORQUE)
+        self._fsm_mode = int(FsmMode.STATIC)
+        self._balance_mode = int(BalanceMode.BALANCE_STAND)
+        self._speed_mode = 0
+        self._stand_height = DEFAULT_STAND_HEIGHT_M
+        self._swing_height = DEFAULT_SWING_HEIGHT_M
+        self._velocity = np.zeros(3)
+        self._velocity_until = 0.0
+        self.counters: dict[str, int] = dict.fromkeys(
+            ("set_fsm_requests", "damp_requests", "refused", "invalid_fsm", "velocity_requests",
+             "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls"), 0)
+        self._fallen = False
+
+        if start_service:
+            if start_service not in SERVICE_NAMES:
+                raise ValueError(f"unknown service {start_service!r}; one of {sorted(SERVICE_NAMES)} or ''")
+            self._service = start_service
+            self._boot_fsm(int(start_fsm))
+        else:
+            self._switch(self._lowlevel)
+
+    def _boot_fsm(self, fsm: int) -> None:
+        if fsm in (FsmId.ZERO_TORQUE, FsmId.DAMP):
+            self._fsm = fsm
+            self._switch(self._zero if fsm == FsmId.ZERO_TORQUE else self._damp)
+        elif fsm == FsmId.STAND_UP:
+            self._fsm = fsm
+            self._switch(self._loco)  # the keyframe already stands in the policy's default pose
+        else:
+            raise ValueError(f"boot fsm must be 0, 1 or 4, not {fsm}")
+
+    # --- physics ---------------------------------------------------------------------------------
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._g1.model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        """Live MjData: read it under :attr:`lock` if the loop runs in another thread."""
+        return self._data
+
+    @property
+    def lock(self) -> threading.RLock:
+        return self._lock
+
+    @property
+    def time(self) -> float:
+        return float(self._data.time)
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` physics steps (2 ms each); firmware bookkeeping runs at the policy's 50 Hz."""
+        for _ in range(n):
+            with self._lock:
+                if self._steps % self._decimation == 0:
+                    self._tick()
+                tau = self._ctrl.torques(self._s)
+                if self._arm.weight > 0.0 and self._balanced():
+                    tau = self._arm.blend(tau, self._s)
+                self._data.ctrl[:] = tau
+                mujoco.mj_step(self._g1.model, self._data)
+                self._steps += 1
+
+    def _switch(self, ctrl: Controller) -> None:
+        if ctrl is not self._ctrl:
+            self._ctrl.release(self._s)
+            ctrl.reset(self._s)
+            self._ctrl = ctrl
+
+    def _balanced(self) -> bool:
+        """The policy is in charge (lock stand or walking, stand-up motion finished)."""
+        return self._ctrl is self._loco or (self._ctrl is self._stand_up and self._stand_up.done)
+
+    def _transition_running(self) -> bool:
+        if self._ctrl is self._stand_up:
+            return not self._stand_up.done
+        if self._ctrl in (self._squat, self._sit):
+            return self._ctrl.progress < 1.0
+        return False
+
+    def _tick(self) -> None:
+        """50 Hz firmware work: velocity lease, fsm_mode, fall detector."""
+        t = self.time
+        if self._velocity_until and t >= self._velocity_until:
+            self._velocity[:] = 0.0
+            self._velocity_until = 0.0
+        walking = self._fsm in WALKING_FSM_IDS and self._balanced()
+        self._loco.command[:] = self._velocity if walking else 0.0
+        self._loco.step_in_place = walking and self._balance_mode == BalanceMode.CONTINUOUS_GAIT
+        pose = self.base_pose()
+        self._fsm_mode = int(rules.is_dynamic(
+            self._fsm, moving_command=bool(np.any(self._velocity != 0.0)),
+            speed_mps=float(np.hypot(*pose.linear_velocity[:2])), yaw_rate=float(pose.angular_velocity[2]),
+            transition_running=self._transition_running()))
+        up_z = 1.0 - 2.0 * (self._data.qpos[4] ** 2 + self._data.qpos[5] ** 2)  # body z-axis . world z
+        fallen = self._data.qpos[2] < FALL_HEIGHT_M and np.arccos(np.clip(up_z, -1, 1)) > FALL_TILT_RAD
+        if fallen and not self._fallen:
+            self.counters["falls"] += 1
+            log.info("t=%.2f fall detected in fsm %d", t, self._fsm)
+        self._fallen = bool(fallen)
+
+    # --- sport service ---------------------------------------------------------------------------
+
+    def sport_active(self) -> bool:
+        """The sport service answers only while the motion switcher has a service selected."""
+        with self._lock:
+            return bool(self._service)
+
+    def set_fsm_id(self, fsm_id: int) -> int:
+        with self._lock:
+            self.counters["set_fsm_requests"] += 1
+            if fsm_id == FsmId.DAMP:
+                self.counters["damp_requests"] += 1
+            if not self._service:
+                return self._log("SetFsmId", fsm_id, ERR_SERVER_API_NOT_IMPL)
+            code = rules.set_fsm_verdict(self._fsm, fsm_id, dynamic=self._fsm_mode == FsmMode.DYNAMIC)
+            if code == OK and fsm_id != self._fsm:
+                self._enter(int(fsm_id))
+            return self._log("SetFsmId", fsm_id, code)
+
+    def _enter(self, fsm: int) -> None:
+        was_balanced = self._balanced()
+        self._fsm = fsm
+        self._velocity[:] = 0.0
+        self._velocity_until = 0.0
+        if fsm not in STANDING_FSM_IDS:
+            self._arm.weight = 0.0
+        if fsm == FsmId.ZERO_TORQUE:
+            self._switch(self._zero)
+        elif fsm == FsmId.DAMP:
+            self._switch(self._damp)
+        elif fsm == FsmId.SQUAT:
+            self._switch(self._squat)
+        elif fsm == FsmId.SIT:
+            self._switch(self._sit)
+        elif not was_balanced:  # stand-up ids from damp / squat / sit
+            self._switch(self._stand_up)
+        self._loco.command[:] = 0.0
+        self._fsm_mode = int(FsmMode.DYNAMIC if self._transition_running() else FsmMode.STATIC)
+
+    def _log(self, call: str, arg: object, code: int) -> int:
+        if code != OK:
+            self.counters["refused" if code != ERR_INVALID_FSM_ID else "invalid_fsm"] += 1
+        log.info("t=%.2f %s(%s) in fsm %d mode %d service %r -> %d", self.time, call, arg, self._fsm,
+                 self._fsm_mode, self._service, code)
+        return code
+
+    def get_fsm_id(self) -> tuple[int, int]:
+        with self._lock:
+            return (OK, self._fsm) if self._service else (ERR_SERVER_API_NOT_IMPL, 0)
+
+    def get_fsm_mode(self) -> tuple[int, int]:
+        with self._lock:
+            return (OK, self._fsm_mode) if self._service else (ERR_SERVER_API_NOT_IMPL, 0)
+
+    def set_balance_mode(self, m: int) -> int:
+        """0 balance stand, 1 continuous gait (keeps stepping at zero velocity while walking)."""
+        with self._lock:
+            if not self._service:
+                return ERR_SERVER_API_NOT_IMPL
+            if m not in (BalanceMode.BALANCE_STAND, BalanceMode.CONTINUOUS_GAIT):
+                return ERR_SERVER_API_PARAMETER
+            self._balance_mode = int(m)
+            return OK
+
+    def get_balance_mode(self) -> tuple[int, int]:
+        with self._lock:
+            return (OK, self._balance_mode) if self._service else (ERR_SERVER_API_NOT_IMPL, 0)
+
+    def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float = 1.0) -> int:
+        """Body-frame command that lapses after ``duration_s`` of sim time (0 stops); only in walking fsm ids.
+
+        Clamped to the speed mode's maximum and to the policy's trained range (|v| <= 1).
+        """
+        with self._lock:
+            self.counters["velocity_requests"] += 1
+            if not self._service:
+                return ERR_SERVER_API_NOT_IMPL
+            code = rules.set_velocity_verdict(self._fsm)
+            if code == OK and not self._balanced():
+                code = ERR_REFUSED_IN_STATE
+            if code != OK:
+                return self._log("SetVelocity", (vx, vy, wz), code)
+            if not all(np.isfinite((vx, vy, wz, duration_s))) or duration_s < 0:
+                return ERR_SERVER_API_PARAMETER
+            vmax = min(SPEED_MODE_MAX_SPEED[self._speed_mode], POLICY_MAX_COMMAND)
+            self._velocity[:] = np.clip((vx, vy, wz), -vmax, vmax) if duration_s > 0 else 0.0
+            self._velocity_until = self.time + duration_s if duration_s > 0 else 0.0
+            self._loco.command[:] = self._velocity
+            if np.any(self._velocity != 0.0):
+                self._fsm_mode = int(FsmMode.DYNAMIC)
+            return OK
+
+    def set_speed_mode(self, m: int) -> int:
+        with self._lock:
+            if not self._service:
+                return ERR_SERVER_API_NOT_IMPL
+            if m not in SPEED_MODE_MAX_SPEED:
+                return ERR_SERVER_API_PARAMETER
+            self._speed_mode = int(m)
+            return OK
+
+    def set_stand_height(self, h: float) -> int:
+        """Stored and reported only: the policy has no height input."""
+        with self._lock:
+            if not self._service:
+                return ERR_SERVER_API_NOT_IMPL
+            self._stand_height = float(h)
+            return OK
+
+    def get_stand_height(self) -> tuple[int, float]:
+        with self._lock:
+            return (OK, self._stand_height) if self._service else (ERR_SERVER_API_NOT_IMPL, 0.0)
+
+    def set_swing_height(self, h: float) -> int:
+        """Stored and reported only: the policy has no swing-height input."""
+        with self._lock:
+            if not self._service:
+                return ERR_SERVER_API_NOT_IMPL
+            self._swing_height = float(h)
+            return OK
+
+    def get_swing_height(self) -> tuple[int, float]:
+        with self._lock:
+            return (OK, self._swing_height) if self._service else (ERR_SERVER_API_NOT_IMPL, 0.0)
+
+    # --- motion switcher -------------------------------------------------------------------------
+
+    def check_mode(self) -> tuple[str, str]:
+        """(form, name); name "" means released (debug mode)."""
+        with self._lock:
+            return FORM, self._service
+
+    def select_mode(self, name: str) -> int:
+        """Select a high-level service: the robot comes back in zero torque (limp), as at boot.
+
+        Selecting the service already selected changes nothing.
+        """
+        with self._lock:
+            if name not in SERVICE_NAMES:
+                return self._log("SelectMode", name, ERR_SERVER_API_PARAMETER)
+            if name != self._service:
+                self._service = name
+                self._lowlevel.clear()
+                self._arm.weight = 0.0
+                self._enter(int(FsmId.ZERO_TORQUE))
+            return self._log("SelectMode", name, OK)
+
+    def release_mode(self) -> int:
+        """Debug mode: the sport service stops answering and the robot goes limp until LowCmds arrive."""
+        with self._lock:
+            if self._service:
+                self._service = ""
+                self._fsm = int(FsmId.ZERO_TORQUE)
+                self._fsm_mode = int(FsmMode.STATIC)
+                self._velocity[:] = 0.0
+                self._arm.weight = 0.0
+                self._lowlevel.clear()
+                self._switch(self._lowlevel)
+            return self._log("ReleaseMode", "", OK)
+
+    def get_silent(self) -> bool:
+        with self._lock:
+            return self._silent
+
+    def set_silent(self, silent: bool) -> int:
+        with self._lock:
+            self._silent = bool(silent)
+            return OK
+
+    # --- streams ---------------------------------------------------------------------------------
+
+    def apply_arm_sdk(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike, kp: ArrayLike, kd: ArrayLike,
+                      weight: float) -> None:
+        """rt/arm_sdk for motors 12..28 (17 values each), blend weight 0..1; ignored unless the built-in
+        controller stands or walks (and then the weight drops to 0 until the next frame)."""
+        with self._lock:
+            if self._service and self._fsm in STANDING_FSM_IDS and self._balanced():
+                self.counters["arm_sdk_frames"] += 1
+                self._arm.set_command(q, dq, tau, kp, kd, weight)
+            else:
+                self.counters["arm_sdk_ignored"] += 1
+
+    def apply_lowcmd(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike, kp: ArrayLike, kd: ArrayLike,
+                     enabled: ArrayLike) -> None:
+        """rt/lowcmd (29 values each, ``enabled`` = motor mode 1); acts only in debug mode. Held until
+        the next frame, as motor drivers hold their last command."""
+        with self._lock:
+            if self._service:
+                self.counters["lowcmd_ignored"] += 1
+                return
+            self.counters["lowcmd_frames"] += 1
+            self._lowlevel.set_command(q, dq, tau, kp, kd, enabled)
+
+    # --- state -----------------------------------------------------------------------------------
+
+    def lowstate(self) -> LowStateSnapshot:
+        with self._lock:
+            d = self._data
+            quat = d.qpos[3:7].copy()
+            ga, aa = self._g1.gyro_adr, self._g1.accel_adr
+            return LowStateSnapshot(
+                q=self._s.q.copy(), dq=self._s.dq.copy(), tau_est=d.actuator_force[:NUM_JOINTS].copy(),
+                imu_quaternion=quat, imu_gyroscope=d.sensordata[ga : ga + 3].copy(),
+                imu_accelerometer=d.sensordata[aa : aa + 3].copy(), imu_rpy=quat_to_rpy(quat),
+                tick=round(d.time * 1000.0), mode_machine=MODE_MACHINE_G1_29DOF)
+
+    def sport_state(self) -> tuple[int, int]:
+        """(fsm_id, fsm_mode) for rt/sportmodestate; (0, 0) in debug mode."""
+        with self._lock:
+            return (self._fsm, self._fsm_mode) if self._service else (int(FsmId.ZERO_TORQUE), 0)
+
+    def base_pose(self) -> BasePose:
+        with self._lock:
+            d = self._data
+            rot = d.xmat[self._g1.pelvis_body].reshape(3, 3)
+            return BasePose(position=d.qpos[0:3].copy(), quaternion=d.qpos[3:7].copy(),
+                            linear_velocity=d.qvel[0:3].copy(), angular_velocity=rot @ d.qvel[3:6])
+
+    @property
+    def fallen(self) -> bool:
+        """Pelvis below 0.4 m and tilted over (updated at 50 Hz)."""
+        with self._lock:
+            return self._fallen
+
+    @property
+    def fsm_id(self) -> int:
+        """The controller's state, readable even in debug mode (for tests and pictures)."""
+        with self._lock:
+            return self._fsm
+
+    @property
+    def arm_sdk_weight(self) -> float:
+        with self._lock:
+            return self._arm.weight
+
+    @property
+    def standing_balanced(self) -> bool:
+        """The balance controller stands or walks on its own (stand-up motion finished)."""
+        with self._lock:
+            return self._balanced()
+

@@ -1,0 +1,41 @@
+"""Snapshots the firmware hands to the DDS bridge (copies, safe to use outside the sim's lock)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LowStateSnapshot:
+    """What rt/lowstate carries: joints in motor order and the pelvis IMU."""
+
+    q: np.ndarray  # 29, rad
+    dq: np.ndarray  # 29, rad/s
+    tau_est: np.ndarray  # 29, N m (the torque the motors applied)
+    imu_quaternion: np.ndarray  # w x y z
+    imu_gyroscope: np.ndarray  # rad/s, body frame
+    imu_accelerometer: np.ndarray  # m/s^2, body frame (specific force: +9.81 z when at rest)
+    imu_rpy: np.ndarray  # roll, pitch, yaw in rad
+    tick: int  # ms of sim time since boot
+    mode_machine: int
+
+
+@dataclass(frozen=True)
+class BasePose:
+    """Pelvis pose and twist in the world frame (for odometry and tests)."""
+
+    position: np.ndarray  # x y z, m
+    quaternion: np.ndarray  # w x y z
+    linear_velocity: np.ndarray  # m/s, world
+    angular_velocity: np.ndarray  # rad/s, world
+
+
+def quat_to_rpy(q: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw (ZYX) of a w x y z quaternion."""
+    w, x, y, z = q
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.array([roll, pitch, yaw])

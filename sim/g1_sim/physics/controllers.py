@@ -1,0 +1,309 @@
+"""Torque controllers of the simulated G1: each a small object the firmware swaps in and out.
+
+Every controller is called once per physics step with the same :class:`Sensed` view and returns 29
+motor torques (motor order, N m, clipped to the G1 effort limits). Controllers that run slower (the
+policy at 50 Hz) count steps themselves, so the physics loop stays one tight, uniform loop.
+"""
+
+from __future__ import annotations
+
+from typing import Final, Protocol
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike
+
+from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, DAMPING_KD, NUM_JOINTS
+from g1_sim.physics.model import DEFAULT_POSE, EFFORT_LIMIT, QPOS0, QVEL0, TIMESTEP_S, G1Model
+from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
+
+ARM0: Final = ARM_SDK_JOINTS[0]
+N_ARM: Final = len(ARM_SDK_JOINTS)
+GRAVITY: Final = 9.81
+
+
+class Sensed:
+    """Live views into MjData (no copies): what the robot's own sensors and encoders would give."""
+
+    def __init__(self, g1: G1Model, data: mujoco.MjData) -> None:
+        self.g1 = g1
+        self.data = data
+        self.q = data.qpos[QPOS0 : QPOS0 + NUM_JOINTS]
+        self.dq = data.qvel[QVEL0 : QVEL0 + NUM_JOINTS]
+        self.pos = data.qpos[0:3]
+        self.quat = data.qpos[3:7]  # pelvis orientation, w x y z
+        self.ang_vel_body = data.qvel[3:6]  # free joint angular velocity is in the body frame
+        self.lin_vel_world = data.qvel[0:3]
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+
+class Controller(Protocol):
+    def reset(self, s: Sensed) -> None:
+        """Called when the controller takes over."""
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        """Motor torques for this physics step."""
+
+    def release(self, s: Sensed) -> None:
+        """Called when another controller takes over (undo any side effects on the model)."""
+
+
+def pd(q_des: np.ndarray, dq_des: np.ndarray, tau_ff: np.ndarray, kp: np.ndarray, kd: np.ndarray,
+       q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+    """The G1 motor driver law: tau + kp (q_des - q) + kd (dq_des - dq), clipped to the effort limits."""
+    return np.clip(tau_ff + kp * (q_des - q) + kd * (dq_des - dq), -EFFORT_LIMIT, EFFORT_LIMIT)
+
+
+class ZeroTorqueController:
+    """fsm 0 and debug mode without commands: every motor limp, the robot falls."""
+
+    def __init__(self) -> None:
+        self._zero = np.zeros(NUM_JOINTS)
+
+    def reset(self, s: Sensed) -> None:
+        pass
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        return self._zero
+
+    def release(self, s: Sensed) -> None:
+        pass
+
+
+class DampController:
+    """fsm 1: kp 0, kd ~8 on every motor, so the robot sinks slowly instead of dropping."""
+
+    def __init__(self, kd: float = DAMPING_KD) -> None:
+        self.kd = kd
+
+    def reset(self, s: Sensed) -> None:
+        pass
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        return np.clip(-self.kd * s.dq, -EFFORT_LIMIT, EFFORT_LIMIT)
+
+    def release(self, s: Sensed) -> None:
+        pass
+
+
+class LocomotionController:
+    """Balance stand and walking: the policy sets PD targets at 50 Hz; PD runs every physics step.
+
+    ``command`` is (vx, vy, wz) in the body frame; zero means stand still. ``step_in_place`` keeps the
+    gait running at zero command (continuous gait).
+    """
+
+    def __init__(self, policy: LocomotionPolicy) -> None:
+        self.policy = policy
+        self.decimation = round(1.0 / (RATE_HZ * TIMESTEP_S))
+        self.command = np.zeros(3)
+        self.step_in_place = False
+        self.targets = DEFAULT_POSE.copy()
+        self._zeros = np.zeros(NUM_JOINTS)
+        self._count = 0
+
+    def reset(self, s: Sensed) -> None:
+        self.policy.reset()
+        self.command[:] = 0.0
+        self._count = 0
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        if self._count % self.decimation == 0:
+            self.targets = self.policy.act(s.q, s.dq, s.quat, s.ang_vel_body, self.command,
+                                           step_in_place=self.step_in_place)
+        self._count += 1
+        return pd(self.targets, self._zeros, self._zeros, self.policy.kp, self.policy.kd, s.q, s.dq)
+
+    def release(self, s: Sensed) -> None:
+        pass
+
+
+def _smoothstep(x: float) -> float:
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+class PostureHarness:
+    """Squat, sit and the stand-up motion, for which the policy has no skill.
+
+    NOT the robot's real controller: a soft joint PD towards a posture plus a *virtual harness*, a
+    spring-damper wrench on the pelvis (height, horizontal position, tilt; yaw is free) with gravity
+    compensation, applied through ``xfrc_applied``. Pose and harness targets ramp from where the robot
+    is to the goal over ``ramp_s``. ``support`` (0..1) scales the harness, so it can be faded out.
+    """
+
+    def __init__(self, g1: G1Model, pose: np.ndarray, height: float, *, ramp_s: float = 2.0,
+                 kp: np.ndarray | float = 120.0, kd: np.ndarray | float = 6.0) -> None:
+        self.goal_pose = np.asarray(pose, dtype=float)
+        self.goal_height = height
+        self.ramp_s = ramp_s
+        self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (NUM_JOINTS,))
+        self.kd = np.broadcast_to(np.asarray(kd, dtype=float), (NUM_JOINTS,))
+        self.support = 1.0
+        self._weight = float(g1.model.body_subtreemass[g1.pelvis_body]) * GRAVITY
+        self._body = g1.pelvis_body
+        self._zeros = np.zeros(NUM_JOINTS)
+        self._t0 = 0.0
+        self._q0 = DEFAULT_POSE.copy()
+        self._z0 = height
+        self._xy0 = np.zeros(2)
+        self._up0 = np.array([0.0, 0.0, 1.0])
+        self._progress = 0.0
+        self._elapsed = 0.0
+
+    def reset(self, s: Sensed) -> None:
+        self._t0 = s.time
+        self._q0 = s.q.copy()
+        self._z0 = float(s.pos[2])
+        self._xy0 = s.pos[0:2].copy()
+        self._up0 = s.data.xmat[self._body].reshape(3, 3)[:, 2].copy()
+        self.support = 1.0
+
+    @property
+    def progress(self) -> float:
+        """0 at the start of the ramp, 1 once the targets reached the goal."""
+        return self._progress
+
+    @property
+    def elapsed(self) -> float:
+        return self._elapsed
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        self._elapsed = s.time - self._t0
+        a = _smoothstep(self._elapsed / self.ramp_s) if self.ramp_s > 0 else 1.0
+        self._progress = a
+        self.apply_harness(s, a)
+        q_des = self._q0 + a * (self.goal_pose - self._q0)
+        return pd(q_des, self._zeros, self._zeros, self.kp, self.kd, s.q, s.dq)
+
+    def apply_harness(self, s: Sensed, a: float) -> None:
+        z_des = self._z0 + a * (self.goal_height - self._z0)
+        up_des = self._up0 + a * (np.array([0.0, 0.0, 1.0]) - self._up0)
+        up_des /= np.linalg.norm(up_des)
+        v = s.lin_vel_world
+        force = np.array([
+            600.0 * (self._xy0[0] - s.pos[0]) - 150.0 * v[0],
+            600.0 * (self._xy0[1] - s.pos[1]) - 150.0 * v[1],
+            self._weight + 4000.0 * (z_des - s.pos[2]) - 500.0 * v[2],
+        ])
+        up = s.data.xmat[self._body].reshape(3, 3)[:, 2]
+        omega_world = s.data.xmat[self._body].reshape(3, 3) @ s.ang_vel_body
+        torque = 500.0 * np.cross(up, up_des) - 60.0 * omega_world
+        torque[2] = -20.0 * omega_world[2]
+        s.data.xfrc_applied[self._body, 0:3] = self.support * force
+        s.data.xfrc_applied[self._body, 3:6] = self.support * torque
+
+    def release(self, s: Sensed) -> None:
+        s.data.xfrc_applied[self._body] = 0.0
+
+
+class StandUpSequence:
+    """fsm 4 (and 702/706) from damp, squat or sit: harness up to the standing pose, then hand over to
+    the policy (zero command) while the harness fades out. ``done`` once the policy stands alone."""
+
+    def __init__(self, g1: G1Model, locomotion: LocomotionController, stand_height: float, *,
+                 ramp_s: float = 2.0, hold_s: float = 0.5, fade_s: float = 0.6) -> None:
+        self.harness = PostureHarness(g1, DEFAULT_POSE, stand_height, ramp_s=ramp_s,
+                                      kp=locomotion.policy.kp * 2.0, kd=locomotion.policy.kd * 2.0)
+        self.locomotion = locomotion
+        self.hold_s = hold_s
+        self.fade_s = fade_s
+        self.done = False
+        self._t_policy = 0.0
+        self._on_policy = False
+
+    def reset(self, s: Sensed) -> None:
+        self.harness.reset(s)
+        self.done = False
+        self._on_policy = False
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        if not self._on_policy:
+            tau = self.harness.torques(s)
+            if self.harness.elapsed >= self.harness.ramp_s + self.hold_s:
+                self._on_policy = True
+                self._t_policy = s.time
+                self.locomotion.reset(s)
+            return tau
+        fade = 1.0 - (s.time - self._t_policy) / self.fade_s
+        if fade > 0.0:
+            self.harness.support = fade
+            self.harness.apply_harness(s, 1.0)
+        elif not self.done:
+            self.harness.release(s)
+            self.done = True
+        return self.locomotion.torques(s)
+
+    def release(self, s: Sensed) -> None:
+        self.harness.release(s)
+
+
+class LowLevelController:
+    """Debug mode: per motor tau + kp (q_des - q) + kd (dq_des - dq) from the latest LowCmd; disabled
+    motors (mode 0) and a robot that has received no LowCmd yet are limp. The last command is held."""
+
+    def __init__(self) -> None:
+        self.q = np.zeros(NUM_JOINTS)
+        self.dq = np.zeros(NUM_JOINTS)
+        self.tau = np.zeros(NUM_JOINTS)
+        self.kp = np.zeros(NUM_JOINTS)
+        self.kd = np.zeros(NUM_JOINTS)
+        self.enabled = np.zeros(NUM_JOINTS, dtype=bool)
+
+    def set_command(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike, kp: ArrayLike, kd: ArrayLike,
+                    enabled: ArrayLike) -> None:
+        self.q[:] = q
+        self.dq[:] = dq
+        self.tau[:] = tau
+        self.kp[:] = kp
+        self.kd[:] = kd
+        self.enabled[:] = np.asarray(enabled, dtype=bool)
+
+    def clear(self) -> None:
+        self.set_command(0, 0, 0, 0, 0, False)
+
+    def reset(self, s: Sensed) -> None:
+        pass
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        return np.where(self.enabled, pd(self.q, self.dq, self.tau, self.kp, self.kd, s.q, s.dq), 0.0)
+
+    def release(self, s: Sensed) -> None:
+        pass
+
+
+class ArmSdkBlend:
+    """rt/arm_sdk: on motors 12..28, tau = (1 - w) tau_builtin + w tau_armsdk, w the stream's weight 0..1.
+
+    Torques rather than targets are blended, so the built-in controller's own gains never leak into
+    the user's PD; the legs (0..11) always stay with the built-in controller.
+    """
+
+    def __init__(self) -> None:
+        self.q = np.zeros(N_ARM)
+        self.dq = np.zeros(N_ARM)
+        self.tau = np.zeros(N_ARM)
+        self.kp = np.zeros(N_ARM)
+        self.kd = np.zeros(N_ARM)
+        self.weight = 0.0
+
+    def set_command(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike, kp: ArrayLike, kd: ArrayLike,
+                    weight: float) -> None:
+        self.q[:] = q
+        self.dq[:] = dq
+        self.tau[:] = tau
+        self.kp[:] = kp
+        self.kd[:] = kd
+        self.weight = float(np.clip(weight, 0.0, 1.0))
+
+    def blend(self, tau_builtin: np.ndarray, s: Sensed) -> np.ndarray:
+        if self.weight <= 0.0:
+            return tau_builtin
+        arm = slice(ARM0, ARM0 + N_ARM)
+        user = pd(self.q, self.dq, self.tau, self.kp, self.kd, s.q[arm], s.dq[arm])
+        out = tau_builtin.copy()
+        out[arm] = (1.0 - self.weight) * tau_builtin[arm] + self.weight * user
+        return out

@@ -1,0 +1,118 @@
+"""The G1 MuJoCo model, built once with MjSpec from the Menagerie scene: a robot that takes torques."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Final
+
+import mujoco
+import numpy as np
+
+from g1_mode_manager.protocol.motors import EFFORT_LIMIT_NM, JOINT_NAMES, NUM_JOINTS
+from g1_sim.assets import assets_dir, scene_xml
+
+TIMESTEP_S: Final = 0.002
+#: The locomotion policy's default pose (motor order), rad: legs slightly bent, arms a little out.
+_LEG = (-0.312, 0.0, 0.0, 0.669, -0.363, 0.0)
+DEFAULT_POSE: Final = np.array(
+    (*_LEG, *_LEG, 0.0, 0.0, 0.0, 0.2, 0.2, 0.0, 0.6, 0.0, 0.0, 0.0, 0.2, -0.2, 0.0, 0.6, 0.0, 0.0, 0.0)
+)
+EFFORT_LIMIT: Final = np.array(EFFORT_LIMIT_NM)
+STAND_KEY: Final = "stand"
+PELVIS_BODY: Final = "pelvis"
+PELVIS_GYRO: Final = "imu-pelvis-angular-velocity"
+PELVIS_ACCEL: Final = "imu-pelvis-linear-acceleration"
+#: Joint i (motor order) is qpos[QPOS0 + i] and qvel[QVEL0 + i] (after the pelvis free joint): asserted at build.
+QPOS0: Final = 7
+QVEL0: Final = 6
+
+
+@dataclass(frozen=True)
+class G1Model:
+    """A compiled model plus the addresses the controllers and the firmware read every step."""
+
+    model: mujoco.MjModel
+    pelvis_body: int
+    gyro_adr: int
+    accel_adr: int
+    stand_key: int
+
+    def reset(self, data: mujoco.MjData) -> None:
+        """Put the robot in the standing keyframe (policy default pose, feet on the floor)."""
+        mujoco.mj_resetDataKeyframe(self.model, data, self.stand_key)
+        mujoco.mj_forward(self.model, data)
+
+
+def _to_torque_motors(spec: mujoco.MjSpec) -> None:
+    """Menagerie's actuators are position servos; the real G1 takes torque (plus its own PD from LowCmd)."""
+    names = tuple(a.name for a in spec.actuators)
+    if names != JOINT_NAMES:
+        raise ValueError(f"actuator order of the model differs from the G1 motor order: {names}")
+    for act, limit in zip(spec.actuators, EFFORT_LIMIT_NM, strict=True):
+        if act.target != act.name:
+            raise ValueError(f"actuator {act.name} drives {act.target}, not its namesake joint")
+        act.set_to_motor()
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.ctrlrange = [-limit, limit]
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = [-limit, limit]
+
+
+def standing_qpos(model: mujoco.MjModel, pose: np.ndarray = DEFAULT_POSE) -> np.ndarray:
+    """``pose`` with the pelvis upright, lowered until the lowest collision geom touches the floor."""
+    data = mujoco.MjData(model)
+    qpos = model.qpos0.copy()
+    qpos[0:3] = (0.0, 0.0, 1.0)
+    qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+    qpos[7 : 7 + NUM_JOINTS] = pose
+    data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    robot_geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] != 0 and model.geom_contype[g]]
+    lowest = min(data.geom_xpos[g][2] - _geom_half_height(model, data, g) for g in robot_geoms)
+    qpos[2] = 1.0 - lowest + 0.002
+    return qpos
+
+
+def _geom_half_height(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
+    """Vertical half-extent of a sphere/box/capsule collision geom in its current orientation."""
+    size = model.geom_size[g]
+    rot = data.geom_xmat[g].reshape(3, 3)
+    kind = model.geom_type[g]
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return float(size[0])
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        return float(np.abs(rot[2, :]) @ size)
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return float(size[0] + abs(rot[2, 2]) * size[1])
+    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return float(abs(rot[2, 2]) * size[1] + np.hypot(rot[2, 0], rot[2, 1]) * size[0])
+    return float(model.geom_rbound[g])
+
+
+def build_model(root: str | Path | None = None) -> G1Model:
+    """Compile the scene once: torque motors with G1 effort limits, dt 2 ms, keyframe ``stand``."""
+    spec = mujoco.MjSpec.from_file(str(scene_xml(assets_dir(root))))
+    spec.option.timestep = TIMESTEP_S
+    _to_torque_motors(spec)
+    spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 640)
+    spec.visual.global_.offheight = max(spec.visual.global_.offheight, 480)
+    model = spec.compile()
+
+    for i, name in enumerate(JOINT_NAMES):
+        jnt = model.joint(name)
+        if jnt.qposadr[0] != QPOS0 + i or jnt.dofadr[0] != QVEL0 + i:
+            raise ValueError(f"joint {name} is not at motor index {i} in qpos/qvel")
+
+    stand = standing_qpos(model)
+    key = model.key(STAND_KEY).id
+    model.key_qpos[key] = stand
+    model.key_qvel[key] = 0.0
+    model.key_ctrl[key] = 0.0
+    return G1Model(
+        model=model,
+        pelvis_body=model.body(PELVIS_BODY).id,
+        gyro_adr=int(model.sensor(PELVIS_GYRO).adr[0]),
+        accel_adr=int(model.sensor(PELVIS_ACCEL).adr[0]),
+        stand_key=key,
+    )
