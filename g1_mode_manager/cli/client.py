@@ -1,0 +1,107 @@
+"""A small rclpy client of the mode manager's services and topics, shared by g1ctl and the demo."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import rclpy
+from g1_mode_manager_msgs.msg import Mode, SportModeState
+from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from geometry_msgs.msg import Twist
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from std_srvs.srv import Trigger
+
+from g1_mode_manager.node.mode_manager import MODE_QOS
+
+
+def default_discovery_to_localhost() -> None:
+    """Like the demo, stay on this machine unless the user chose otherwise."""
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+
+class ManagerClient:
+    """Calls ~/set_mode, ~/estop, ~/loco_command of a mode manager node and watches ~/mode."""
+
+    def __init__(self, manager: str = "/g1_mode_manager", name: str = "g1ctl") -> None:
+        self.manager = manager.rstrip("/")
+        self._context = rclpy.Context()
+        rclpy.init(context=self._context)
+        self.node = Node(f"{name}_{os.getpid()}", context=self._context)
+        self._executor = SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
+        self._thread.start()
+        self._lock = threading.Lock()
+        self.last_mode: Mode | None = None
+        self.last_sport: SportModeState | None = None
+        self._mode_listeners: list = []
+        self.node.create_subscription(Mode, f"{self.manager}/mode", self._on_mode, MODE_QOS)
+        self.node.create_subscription(SportModeState, f"{self.manager}/sportmodestate", self._on_sport, 10)
+        self.cmd_vel = self.node.create_publisher(Twist, "/cmd_vel", 10)
+
+    def close(self) -> None:
+        self._executor.shutdown()
+        self._thread.join(5.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self._context)
+
+    def __enter__(self) -> ManagerClient:
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def _on_mode(self, msg: Mode) -> None:
+        with self._lock:
+            self.last_mode = msg
+            listeners = list(self._mode_listeners)
+        for listener in listeners:
+            listener(msg)
+
+    def _on_sport(self, msg: SportModeState) -> None:
+        with self._lock:
+            self.last_sport = msg
+
+    def on_mode(self, listener) -> None:
+        with self._lock:
+            self._mode_listeners.append(listener)
+
+    def wait_for_mode(self, timeout_s: float = 10.0) -> Mode | None:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            with self._lock:
+                if self.last_mode is not None:
+                    return self.last_mode
+            time.sleep(0.05)
+        return None
+
+    def _call(self, srv_type, name: str, request, timeout_s: float):
+        client = self.node.create_client(srv_type, f"{self.manager}/{name}")
+        try:
+            if not client.wait_for_service(timeout_sec=min(timeout_s, 10.0)):
+                raise TimeoutError(f"service {self.manager}/{name} not available: is the mode manager running?")
+            future = client.call_async(request)
+            done = threading.Event()
+            future.add_done_callback(lambda _f: done.set())
+            if not done.wait(timeout_s):
+                raise TimeoutError(f"{self.manager}/{name} did not answer within {timeout_s} s")
+            return future.result()
+        finally:
+            self.node.destroy_client(client)
+
+    def set_mode(self, mode_name: str, timeout_s: float = 30.0) -> SetMode.Response:
+        return self._call(SetMode, "set_mode", SetMode.Request(mode_name=mode_name), timeout_s)
+
+    def estop(self, timeout_s: float = 30.0) -> Trigger.Response:
+        return self._call(Trigger, "estop", Trigger.Request(), timeout_s)
+
+    def loco(self, command: str, value: int = 0, timeout_s: float = 10.0) -> LocoCommand.Response:
+        return self._call(LocoCommand, "loco_command", LocoCommand.Request(command=command, value=value), timeout_s)
+
+    def drive(self, vx: float, vy: float = 0.0, wz: float = 0.0) -> None:
+        msg = Twist()
+        msg.linear.x, msg.linear.y, msg.angular.z = float(vx), float(vy), float(wz)
+        self.cmd_vel.publish(msg)

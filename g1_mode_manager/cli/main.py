@@ -1,0 +1,80 @@
+"""g1ctl: set modes, e-stop, send loco commands, drive with the keyboard, watch the mode."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_localhost
+
+
+def _print_mode(msg) -> None:
+    extra = f" -> {msg.transition_target}" if msg.transition_in_progress else ""
+    service = "unknown" if not msg.high_level_service_known else ("active" if msg.high_level_service_active else "released")
+    line = f"{msg.name}{extra}  service={service}  link_ok={msg.link_ok}"
+    if msg.name == "EMERGENCY":
+        line += f"  damp_confirmed={msg.damp_confirmed}"
+    if msg.last_refusal:
+        line += f"  last_refusal={msg.last_refusal!r}"
+    print(line, flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="g1ctl", description=__doc__)
+    parser.add_argument("--manager", default="/g1_mode_manager", help="the mode manager node (default %(default)s)")
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    p = sub.add_parser("mode", help="print the current mode (--watch: every update)")
+    p.add_argument("--watch", action="store_true")
+    p = sub.add_parser("set-mode", help="request a mode: idle, high_level, low_level, emergency")
+    p.add_argument("name")
+    sub.add_parser("estop", help="emergency stop (Damp); the mode stays EMERGENCY")
+    p = sub.add_parser("loco", help="built-in controller command: damp, stand_up, start, sit, squat, ...")
+    p.add_argument("command")
+    p.add_argument("value", nargs="?", type=int, default=0)
+    sub.add_parser("drive", help="keyboard teleop on /cmd_vel")
+    args = parser.parse_args(argv)
+
+    default_discovery_to_localhost()
+    with ManagerClient(args.manager) as client:
+        try:
+            return _run(args, client)
+        except TimeoutError as exc:
+            print(f"g1ctl: {exc}", file=sys.stderr)
+            return 3
+        except KeyboardInterrupt:
+            return 130
+
+
+def _run(args: argparse.Namespace, client: ManagerClient) -> int:
+    if args.cmd == "mode":
+        if args.watch:
+            client.on_mode(_print_mode)
+            import time
+
+            while True:
+                time.sleep(1.0)
+        msg = client.wait_for_mode()
+        if msg is None:
+            print("g1ctl: no ~/mode received: is the mode manager running?", file=sys.stderr)
+            return 3
+        _print_mode(msg)
+        return 0
+    if args.cmd == "set-mode":
+        r = client.set_mode(args.name)
+        print(f"success={r.success} mode={r.mode_name}: {r.message}")
+        return 0 if r.success else 1
+    if args.cmd == "estop":
+        r = client.estop()
+        print(f"success={r.success}: {r.message}")
+        return 0 if r.success else 1
+    if args.cmd == "loco":
+        r = client.loco(args.command, args.value)
+        print(f"success={r.success} code={r.code}: {r.message}")
+        return 0 if r.success else 1
+    from g1_mode_manager.cli.keyboard import run_keyboard
+
+    return run_keyboard(client)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

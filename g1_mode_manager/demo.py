@@ -1,0 +1,154 @@
+"""g1_demo (make run): the simulated G1 and the mode manager, a short scripted tour, then yours to drive.
+
+Starts the MuJoCo sim bridge and the mode_manager node as two processes on loopback, walks the robot
+through HIGH_LEVEL -> Start -> cmd_vel -> E-STOP while printing what happens, then keeps both running
+for `g1ctl` in another terminal until Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_localhost
+
+
+class Child:
+    """A child process whose output is echoed with a prefix and searched for a ready line."""
+
+    def __init__(self, name: str, argv: list[str], ready_text: str) -> None:
+        self.name = name
+        self.ready = threading.Event()
+        self._ready_text = ready_text
+        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1,
+                                     start_new_session=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        threading.Thread(target=self._pump, daemon=True).start()
+
+    def _pump(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            print(f"[{self.name}] {line.rstrip()}", flush=True)
+            if self._ready_text in line:
+                self.ready.set()
+
+    def wait_ready(self, timeout_s: float) -> None:
+        deadline = time.monotonic() + timeout_s
+        while not self.ready.wait(0.2):
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"{self.name} exited with code {self.proc.returncode}")
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"{self.name} not ready within {timeout_s} s")
+
+    def stop(self) -> None:
+        for sig, wait in ((signal.SIGINT, 10.0), (signal.SIGKILL, 3.0)):
+            if self.proc.poll() is not None:
+                return
+            os.killpg(self.proc.pid, sig)
+            try:
+                self.proc.wait(wait)
+            except subprocess.TimeoutExpired:
+                continue
+
+
+def _odom_xy(client: ManagerClient):
+    from nav_msgs.msg import Odometry
+
+    latest: list[Odometry] = []
+    client.node.create_subscription(Odometry, "/odom", lambda m: (latest[:1].__len__() and latest.pop()) or latest.append(m), 10)
+
+    def get() -> tuple[float, float] | None:
+        return (latest[0].pose.pose.position.x, latest[0].pose.pose.position.y) if latest else None
+
+    return get
+
+
+def scripted_tour(client: ManagerClient) -> bool:
+    """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, E-STOP. Returns True if all went as expected."""
+    odom = _odom_xy(client)
+    client.on_mode(lambda m: print(f"  ~/mode: {m.name}" + (f" -> {m.transition_target}" if m.transition_in_progress else "")))
+    steps_ok = True
+
+    def step(title: str, ok: bool, detail: str) -> None:
+        nonlocal steps_ok
+        steps_ok &= ok
+        print(f"{'OK  ' if ok else 'FAIL'} {title}: {detail}", flush=True)
+
+    r = client.set_mode("high_level")
+    step("set_mode high_level", r.success, r.message)
+    r = client.loco("start")
+    step("loco start (walk mode, fsm 500)", r.success, r.message)
+    time.sleep(1.0)
+    start = odom()
+    t_end = time.monotonic() + 4.0
+    while time.monotonic() < t_end:
+        client.drive(0.5)
+        time.sleep(0.05)
+    moved = odom()
+    time.sleep(2.0)  # no cmd_vel: the node's watchdog sends StopMove
+    stopped = odom()
+    if start and moved and stopped:
+        dist = math.dist(start, moved)
+        drift = math.dist(moved, stopped)
+        step("cmd_vel 0.5 m/s for 4 s", dist > 1.0, f"walked {dist:.2f} m, then {drift:.2f} m more after cmd_vel stopped")
+    else:
+        step("cmd_vel 0.5 m/s for 4 s", False, "no /odom from the sim bridge")
+    r = client.set_mode("low_level")
+    step("set_mode low_level (robot goes limp)", r.success, r.message)
+    r = client.estop()
+    step("E-STOP from LOW_LEVEL (re-select service, then Damp)", r.success, r.message)
+    r = client.set_mode("idle")
+    step("set_mode idle after E-STOP is refused", not r.success, r.message)
+    return steps_ok
+
+
+def _interrupt(_sig: int, _frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="g1_demo", description=__doc__)
+    parser.add_argument("--dds-domain", type=int, default=int(os.environ.get("G1_DDS_DOMAIN", "0")),
+                        help="Unitree SDK2 DDS domain of the sim (loopback)")
+    parser.add_argument("--speed", type=float, default=1.0, help="sim speed (1 = real time)")
+    parser.add_argument("--no-tour", action="store_true", help="skip the scripted tour")
+    parser.add_argument("--exit", action="store_true", help="stop after the tour instead of waiting for Ctrl-C")
+    args = parser.parse_args(argv)
+    default_discovery_to_localhost()
+    signal.signal(signal.SIGTERM, _interrupt)
+
+    py = sys.executable
+    sim = Child("sim", [py, "-u", "-m", "g1_sim.bridge.main", "--speed", str(args.speed), "--ros-args",
+                        "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo"], "sim_bridge ready")
+    children = [sim]
+    try:
+        sim.wait_ready(60.0)
+        node = Child("node", [py, "-u", "-m", "g1_mode_manager.node.main", "--ros-args",
+                              "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo"], "ready in")
+        children.append(node)
+        node.wait_ready(30.0)
+        ok = True
+        with ManagerClient() as client:
+            if not args.no_tour:
+                ok = scripted_tour(client)
+        print("\nThe simulated G1 and the mode manager are running. In another terminal:\n"
+              "  .venv/bin/g1ctl mode --watch\n  .venv/bin/g1ctl set-mode high_level\n  .venv/bin/g1ctl loco start\n"
+              "  .venv/bin/g1ctl drive\n  .venv/bin/g1ctl estop\n", flush=True)
+        if args.exit:
+            return 0 if ok else 1
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        for child in reversed(children):
+            child.stop()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
