@@ -68,6 +68,8 @@ class FakeRobot:
         self._faults: dict[str, deque[BaseException]] = defaultdict(deque)
         self._holds: dict[str, deque[Hold]] = defaultdict(deque)
         self._check_lies = 0
+        self._check_lag = 0
+        self._stale: deque[str] = deque()
         self.connected = False
         self.damped = False  # the robot is damping (fsm 1) right now
         #: ReleaseMode calls needed before the service is released (per release episode)
@@ -104,6 +106,11 @@ class FakeRobot:
         with self._lock:
             self._check_lies += times
 
+    def lag_check(self, times: int) -> None:
+        """After each service change from now on, CheckMode reports the old service ``times`` more times."""
+        with self._lock:
+            self._check_lag = times
+
     def set_service(self, name: str) -> None:
         """Change the active service behind the machine's back (an app, a reboot)."""
         with self._lock:
@@ -113,6 +120,8 @@ class FakeRobot:
         with self._lock:
             self._faults.clear()
             self._check_lies = 0
+            self._check_lag = 0
+            self._stale.clear()
             self.release_never_works = False
             self.select_never_works = False
             self.release_attempts = 1
@@ -123,6 +132,8 @@ class FakeRobot:
             return bool(
                 any(self._faults.values())
                 or self._check_lies
+                or self._check_lag
+                or self._stale
                 or self.release_never_works
                 or self.select_never_works
                 or self.release_attempts > 1
@@ -151,7 +162,7 @@ class FakeRobot:
     def check_mode(self) -> str:
         self._enter("check_mode", ())
         with self._lock:
-            name = self._service
+            name = self._stale.popleft() if self._stale else self._service
             if self._check_lies > 0:
                 self._check_lies -= 1
                 name = RELEASED if name else ACTIVE
@@ -160,8 +171,8 @@ class FakeRobot:
     def select_mode(self, name: str) -> None:
         self._enter("select_mode", (name,))
         with self._lock:
-            if not self.select_never_works:
-                self._service = name
+            if not self.select_never_works and self._service != name:
+                self._change_service(name)
                 self.damped = False  # the robot comes back in zero torque
             self._release_count = 0
 
@@ -170,7 +181,8 @@ class FakeRobot:
         with self._lock:
             self._release_count += 1
             if not self.release_never_works and self._release_count >= self.release_attempts:
-                self._service = RELEASED
+                if self._service:
+                    self._change_service(RELEASED)
                 self.damped = False
                 self._release_count = 0
 
@@ -190,6 +202,11 @@ class FakeRobot:
                 self.damped = True
 
     # --- internals -----------------------------------------------------------------------------------
+    def _change_service(self, name: str) -> None:
+        """Caller holds the lock."""
+        self._stale = deque([self._service] * self._check_lag)
+        self._service = name
+
     def _enter(self, name: str, args: tuple[object, ...]) -> Call:
         """Log the call, block if held, raise an injected fault or a not-connected error."""
         with self._lock:

@@ -1,0 +1,77 @@
+"""The transition table as data: exactly the legal pairs of the design, a reason for every other pair."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.transitions import TABLE, TRANSITIONS, Step, Transition, lookup
+
+UN, ID, HI, LO, EM = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY
+
+LEGAL = {(UN, ID), (UN, HI), (UN, LO), (ID, HI), (ID, LO), (HI, ID), (HI, LO), (LO, ID), (LO, HI)} | {(m, EM) for m in Mode}
+
+ALL_PAIRS = list(itertools.product(Mode, Mode))
+
+
+def test_table_holds_exactly_the_legal_pairs_once() -> None:
+    pairs = [(t.source, t.target) for t in TRANSITIONS]
+    assert len(pairs) == len(set(pairs)), "a pair is listed twice"
+    assert set(pairs) == LEGAL
+    assert set(TABLE) == LEGAL
+
+
+@pytest.mark.parametrize(("source", "target"), ALL_PAIRS, ids=lambda m: m.name)
+def test_every_pair_is_legal_or_refused_with_a_reason(source: Mode, target: Mode) -> None:
+    rule = lookup(source, target)
+    if (source, target) in LEGAL:
+        assert isinstance(rule, Transition)
+        assert (rule.source, rule.target) == (source, target)
+        assert rule.description
+    else:
+        assert isinstance(rule, str)
+        assert rule.strip()
+
+
+@pytest.mark.parametrize("target", [UN, ID, HI, LO], ids=lambda m: m.name)
+def test_nothing_leaves_emergency(target: Mode) -> None:
+    assert "nothing leaves EMERGENCY" in str(lookup(EM, target))
+
+
+@pytest.mark.parametrize("source", [ID, HI, LO], ids=lambda m: m.name)
+def test_nothing_goes_back_to_uninitialized(source: Mode) -> None:
+    assert "nothing goes back to UNINITIALIZED" in str(lookup(source, UN))
+
+
+@pytest.mark.parametrize("mode", [UN, ID, HI, LO], ids=lambda m: m.name)
+def test_same_mode_is_refused_as_already_there(mode: Mode) -> None:
+    assert lookup(mode, mode) == f"already in {mode.name}; nothing to do"
+
+
+def test_repeated_estop_is_legal() -> None:
+    rule = lookup(EM, EM)
+    assert isinstance(rule, Transition)
+    assert rule.steps == (Step.ESTOP,)
+
+
+def test_steps_connect_first_only_from_uninitialized() -> None:
+    for t in TRANSITIONS:
+        if t.target is EM:
+            assert t.steps == (Step.ESTOP,)
+        elif t.source is UN:
+            assert t.steps[0] is Step.CONNECT
+        else:
+            assert Step.CONNECT not in t.steps
+
+
+def test_steps_match_the_target_mode() -> None:
+    for t in TRANSITIONS:
+        if t.target is HI:
+            assert t.steps[-1] is Step.ENSURE_SERVICE_ACTIVE
+        elif t.target is LO:
+            assert t.steps[-1] is Step.RELEASE_SERVICE
+        elif t.target is ID:
+            assert Step.ENSURE_SERVICE_ACTIVE not in t.steps
+            assert Step.RELEASE_SERVICE not in t.steps

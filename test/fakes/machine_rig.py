@@ -1,0 +1,44 @@
+"""A mode machine wired to a fake robot, with everything it reports collected for assertions."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from fakes.fake_clock import FakeClock
+from fakes.fake_robot import ACTIVE, FakeRobot
+from g1_mode_manager.core.machine import MachineStatus, ModeMachine, TransitionRecord
+from g1_mode_manager.core.modes import Mode
+
+
+@dataclass
+class Rig:
+    robot: FakeRobot
+    machine: ModeMachine
+    clock: FakeClock | None
+    records: list[TransitionRecord] = field(default_factory=list)
+    statuses: list[MachineStatus] = field(default_factory=list)
+
+    def bring_to(self, mode: Mode) -> None:
+        """Reach ``mode`` the ordinary way (asserting it worked); the call log is kept."""
+        if mode is Mode.UNINITIALIZED:
+            return
+        outcome = self.machine.estop() if mode is Mode.EMERGENCY else self.machine.request(mode)
+        assert outcome.success, outcome
+        assert self.machine.mode is mode
+
+
+def make_rig(service: str = ACTIVE, *, real_time: bool = False, **machine_kwargs: object) -> Rig:
+    """A fresh fake robot (``service`` active) and machine; fake time unless ``real_time``."""
+    robot = FakeRobot(service)
+    clock = None if real_time else FakeClock()
+    rig = Rig(robot=robot, machine=None, clock=clock)  # type: ignore[arg-type]
+    timing = {"clock": time.monotonic, "sleep": time.sleep} if clock is None else {"clock": clock, "sleep": clock.sleep}
+    rig.machine = ModeMachine(
+        robot,
+        on_record=rig.records.append,
+        on_change=rig.statuses.append,
+        **timing,  # type: ignore[arg-type]
+        **machine_kwargs,  # type: ignore[arg-type]
+    )
+    return rig
