@@ -1,0 +1,91 @@
+"""The fake G1 extended to the full RobotPort: loco calls, arm_sdk / lowcmd frames, robot state.
+
+For unit tests of the relays and the node's plumbing only; end-to-end tests use the real sim bridge.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from fakes.fake_robot import FakeRobot
+from g1_mode_manager.core.port import MotorCommand, RobotError, SportState
+from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.protocol.motors import NUM_JOINTS
+
+
+@dataclass(frozen=True)
+class Sent:
+    name: str
+    args: tuple
+    at: float
+
+
+class FakeRobotPort(FakeRobot):
+    """Records every stream call with its time; state (ages, fsm) is set by the test."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._stream_lock = threading.Lock()
+        self.sent: list[Sent] = []
+        self.lowstate_age: float | None = 0.01
+        self.sport: SportState | None = SportState(fsm_id=4, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
+        self.positions: list[float] | None = [0.1 * i for i in range(NUM_JOINTS)]
+        self.fail_stream: dict[str, int] = {}  # name -> error code for every call
+        self.listener: Callable[[SportState], None] | None = None
+
+    def _record(self, name: str, *args: object) -> None:
+        code = self.fail_stream.get(name)
+        with self._stream_lock:
+            self.sent.append(Sent(name, args, time.monotonic()))
+        if code is not None:
+            raise RobotError(name, code, "injected")
+
+    def stream(self, name: str) -> list[Sent]:
+        with self._stream_lock:
+            return [s for s in self.sent if s.name == name]
+
+    def set_fsm_id(self, fsm_id: int) -> None:
+        self._record("set_fsm_id", fsm_id)
+
+    def get_fsm_id(self) -> int:
+        return self.sport.fsm_id if self.sport else 0
+
+    def get_fsm_mode(self) -> int:
+        return self.sport.fsm_mode if self.sport else 0
+
+    def set_balance_mode(self, mode: int) -> None:
+        self._record("set_balance_mode", mode)
+
+    def set_speed_mode(self, mode: int) -> None:
+        self._record("set_speed_mode", mode)
+
+    def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
+        self._record("set_velocity", vx, vy, wz, duration_s)
+
+    def write_arm_sdk(self, targets: Sequence[MotorCommand], weight: float) -> None:
+        assert len(targets) == 17
+        self._record("write_arm_sdk", tuple(targets), weight)
+
+    def write_lowcmd(self, commands: Sequence[MotorCommand]) -> None:
+        assert len(commands) == NUM_JOINTS
+        if self.lowstate_age is None:
+            raise RobotError("write_lowcmd", api_ids.ERR_UNKNOWN, "no rt/lowstate yet: mode_machine unknown")
+        self._record("write_lowcmd", tuple(commands))
+
+    def sport_state(self) -> SportState | None:
+        return self.sport
+
+    def set_sport_state_listener(self, listener: Callable[[SportState], None] | None) -> None:
+        self.listener = listener
+
+    def lowstate_age_s(self) -> float | None:
+        return self.lowstate_age
+
+    def joint_positions(self) -> Sequence[float] | None:
+        return self.positions
+
+    def close(self) -> None:
+        self._record("close")
