@@ -1,0 +1,119 @@
+"""rt/lowcmd and rt/arm_sdk intake: check each frame as the robot does, count the ignored ones by reason.
+
+rt/lowcmd (debug mode only): a frame whose CRC is wrong or whose ``mode_machine`` is not the robot's
+(5) is ignored; motors whose ``mode`` is not 1 are disabled (no torque).
+
+rt/arm_sdk (built-in controller standing or walking): a frame whose CRC is wrong is ignored. Unlike
+rt/lowcmd, ``mode_machine`` and the motor ``mode`` flags are NOT checked: Unitree's own arm_sdk
+examples leave both at 0 and work on the robot. Frames with another ``mode_machine`` than 5 are
+counted (``mode_machine_not_5``) so a test can still see them. ``motor_cmd[29].q`` is the blend weight,
+clipped to 0..1. Frames with a non-finite number are ignored on both topics (``non_finite``).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import Counter
+from collections.abc import Callable
+from operator import attrgetter
+from typing import Any, Final, Protocol
+
+import numpy as np
+
+from g1_mode_manager.protocol.crc import lowcmd_crc
+from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS
+from g1_mode_manager.protocol.idl import LowCmd_
+from g1_mode_manager.protocol.motors import (
+    ARM_SDK_JOINTS,
+    ARM_SDK_WEIGHT_INDEX,
+    MODE_MACHINE_G1_29DOF,
+    MOTOR_ENABLED,
+    NUM_JOINTS,
+)
+
+LOWCMD: Final = "lowcmd"
+ARM_SDK: Final = "arm_sdk"
+
+# Reasons a frame is ignored (counters; "received" and "accepted" count the rest).
+BAD_CRC: Final = "bad_crc"
+BAD_MODE_MACHINE: Final = "bad_mode_machine"
+NON_FINITE: Final = "non_finite"
+NOT_DEBUG_MODE: Final = "not_debug_mode"  # lowcmd while the sport service owns the motors
+NOT_STANDING: Final = "not_standing"  # arm_sdk while the controller neither stands nor walks
+# Informational (the frame still acts).
+MODE_MACHINE_NOT_5: Final = "mode_machine_not_5"
+MOTORS_DISABLED: Final = "motors_disabled"
+
+_MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
+
+
+class CommandRobot(Protocol):
+    def sport_active(self) -> bool: ...
+    def sport_state(self) -> tuple[int, int]: ...
+    def apply_arm_sdk(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, weight: float) -> None: ...
+    def apply_lowcmd(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, enabled: Any) -> None: ...
+
+
+def motor_arrays(msg: LowCmd_, indices: range | tuple[int, ...]) -> np.ndarray:
+    """(6, n) array of mode, q, dq, tau, kp, kd for the given motor indices."""
+    cmds = msg.motor_cmd
+    return np.array([_MOTOR(cmds[i]) for i in indices], dtype=np.float64).T
+
+
+class CommandIntake:
+    """Checks, counts and applies LowCmd_ frames of both topics (called from DDS reader threads)."""
+
+    def __init__(self, robot: CommandRobot, *, crc: Callable[[LowCmd_], int] = lowcmd_crc) -> None:
+        self._robot = robot
+        self._crc = crc
+        self._lock = threading.Lock()
+        self._counts: dict[str, Counter[str]] = {LOWCMD: Counter(), ARM_SDK: Counter()}
+
+    def _count(self, topic: str, *keys: str) -> None:
+        with self._lock:
+            counter = self._counts[topic]
+            for key in keys:
+                counter[key] += 1
+
+    def counts(self) -> dict[str, dict[str, int]]:
+        with self._lock:
+            return {topic: dict(sorted(c.items())) for topic, c in self._counts.items()}
+
+    def on_lowcmd(self, msg: LowCmd_) -> str | None:
+        """Apply a rt/lowcmd frame; returns the reason it was ignored, or None."""
+        self._count(LOWCMD, "received")
+        if msg.crc != self._crc(msg):
+            return self._ignore(LOWCMD, BAD_CRC)
+        if msg.mode_machine != MODE_MACHINE_G1_29DOF:
+            return self._ignore(LOWCMD, BAD_MODE_MACHINE)
+        m = motor_arrays(msg, range(NUM_JOINTS))
+        if not np.isfinite(m).all():
+            return self._ignore(LOWCMD, NON_FINITE)
+        if self._robot.sport_active():
+            return self._ignore(LOWCMD, NOT_DEBUG_MODE)
+        enabled = m[0] == MOTOR_ENABLED
+        self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
+        self._count(LOWCMD, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
+        return None
+
+    def on_arm_sdk(self, msg: LowCmd_) -> str | None:
+        """Apply a rt/arm_sdk frame; returns the reason it was ignored, or None."""
+        self._count(ARM_SDK, "received")
+        if msg.crc != self._crc(msg):
+            return self._ignore(ARM_SDK, BAD_CRC)
+        weight = float(msg.motor_cmd[ARM_SDK_WEIGHT_INDEX].q)
+        m = motor_arrays(msg, ARM_SDK_JOINTS)
+        if not (math.isfinite(weight) and np.isfinite(m[1:]).all()):
+            return self._ignore(ARM_SDK, NON_FINITE)
+        fsm_id, _ = self._robot.sport_state()
+        if not self._robot.sport_active() or fsm_id not in STANDING_FSM_IDS:
+            return self._ignore(ARM_SDK, NOT_STANDING)
+        self._robot.apply_arm_sdk(m[1], m[2], m[3], m[4], m[5], min(max(weight, 0.0), 1.0))
+        extra = () if msg.mode_machine == MODE_MACHINE_G1_29DOF else (MODE_MACHINE_NOT_5,)
+        self._count(ARM_SDK, "accepted", *extra)
+        return None
+
+    def _ignore(self, topic: str, reason: str) -> str:
+        self._count(topic, reason)
+        return reason

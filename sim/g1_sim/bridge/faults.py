@@ -1,0 +1,171 @@
+"""Faults the bridge injects on demand, so tests can see how clients cope with a misbehaving robot.
+
+Configured as JSON (ROS parameter ``faults``), e.g.::
+
+    {"delay_s": {"1002": 5.0},   # handle and answer these api ids after a delay (others go on meanwhile)
+     "drop": [7101],              # neither handle nor answer these api ids (the client times out: 3104)
+     "error": {"7101": 3104},     # answer this code without handling the request
+     "pause_state": true,         # stop publishing rt/lowstate and rt/sportmodestate (the sim keeps running)
+     "damp_fails": 2}             # the next 2 SetFsmId(1) answer 3104 and do not damp
+
+Every key is optional; a new configuration replaces the old one as a whole.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT
+
+#: What a failing Damp answers (the robot's controller timing out).
+DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
+
+_KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails"})
+
+
+class FaultConfigError(ValueError):
+    """The faults JSON is malformed; the message says what is wrong."""
+
+
+@dataclass(frozen=True)
+class FaultConfig:
+    """One parsed faults configuration (immutable, so readers need no lock)."""
+
+    delay_s: Mapping[int, float] = field(default_factory=lambda: MappingProxyType({}))
+    drop: frozenset[int] = frozenset()
+    error: Mapping[int, int] = field(default_factory=lambda: MappingProxyType({}))
+    pause_state: bool = False
+    damp_fails: int = 0
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "delay_s": {str(k): v for k, v in self.delay_s.items()},
+            "drop": sorted(self.drop),
+            "error": {str(k): v for k, v in self.error.items()},
+            "pause_state": self.pause_state,
+            "damp_fails": self.damp_fails,
+        }
+
+
+def _api_id(key: Any, where: str) -> int:
+    if isinstance(key, bool):
+        raise FaultConfigError(f"{where}: api id must be an integer, got {key!r}")
+    try:
+        api_id = int(key)
+    except (TypeError, ValueError):
+        raise FaultConfigError(f"{where}: api id must be an integer, got {key!r}") from None
+    if api_id <= 0 or str(key).strip() != str(api_id):
+        raise FaultConfigError(f"{where}: api id must be a positive integer, got {key!r}")
+    return api_id
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise FaultConfigError(f"{where}: expected a number, got {value!r}")
+    return float(value)
+
+
+def parse_faults(text: str) -> FaultConfig:
+    """Parse the faults JSON ("" or "{}" = no faults); raise FaultConfigError on anything unexpected."""
+    if not text.strip():
+        return FaultConfig()
+    try:
+        raw = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise FaultConfigError(f"faults is not valid JSON: {e}") from None
+    if not isinstance(raw, dict):
+        raise FaultConfigError(f"faults must be a JSON object, got {type(raw).__name__}")
+    unknown = set(raw) - _KEYS
+    if unknown:
+        raise FaultConfigError(f"unknown fault keys {sorted(unknown)}; known: {sorted(_KEYS)}")
+
+    delay_raw = raw.get("delay_s", {})
+    if not isinstance(delay_raw, dict):
+        raise FaultConfigError("delay_s must be an object {api_id: seconds}")
+    delay: dict[int, float] = {}
+    for k, v in delay_raw.items():
+        seconds = _number(v, f"delay_s[{k}]")
+        if not 0.0 <= seconds <= 3600.0:
+            raise FaultConfigError(f"delay_s[{k}]: seconds must be within 0..3600, got {seconds}")
+        delay[_api_id(k, "delay_s")] = seconds
+
+    drop_raw = raw.get("drop", [])
+    if not isinstance(drop_raw, list):
+        raise FaultConfigError("drop must be a list of api ids")
+    drop = frozenset(_api_id(k, "drop") for k in drop_raw)
+
+    error_raw = raw.get("error", {})
+    if not isinstance(error_raw, dict):
+        raise FaultConfigError("error must be an object {api_id: code}")
+    error: dict[int, int] = {}
+    for k, v in error_raw.items():
+        code = _number(v, f"error[{k}]")
+        if code != int(code) or code == 0:
+            raise FaultConfigError(f"error[{k}]: code must be a non-zero integer, got {v!r}")
+        error[_api_id(k, "error")] = int(code)
+
+    pause = raw.get("pause_state", False)
+    if not isinstance(pause, bool):
+        raise FaultConfigError(f"pause_state must be true or false, got {pause!r}")
+
+    damp_fails = raw.get("damp_fails", 0)
+    if isinstance(damp_fails, bool) or not isinstance(damp_fails, int) or damp_fails < 0:
+        raise FaultConfigError(f"damp_fails must be a non-negative integer, got {damp_fails!r}")
+
+    return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails)
+
+
+class Faults:
+    """The active fault configuration, shared by the RPC servers and the state publishers."""
+
+    def __init__(self, config: FaultConfig | None = None) -> None:
+        self._lock = threading.Lock()
+        self._config = config or FaultConfig()
+        self._damp_fails_left = self._config.damp_fails
+
+    @property
+    def config(self) -> FaultConfig:
+        return self._config
+
+    def set(self, config: FaultConfig) -> None:
+        """Replace the configuration; the damp failure budget restarts from config.damp_fails."""
+        with self._lock:
+            self._config = config
+            self._damp_fails_left = config.damp_fails
+
+    def set_json(self, text: str) -> FaultConfig:
+        """Parse and apply; on error raise FaultConfigError and keep the previous configuration."""
+        config = parse_faults(text)
+        self.set(config)
+        return config
+
+    def delay_s(self, api_id: int) -> float:
+        return self._config.delay_s.get(api_id, 0.0)
+
+    def drops(self, api_id: int) -> bool:
+        return api_id in self._config.drop
+
+    def error_code(self, api_id: int) -> int | None:
+        return self._config.error.get(api_id)
+
+    @property
+    def state_paused(self) -> bool:
+        return self._config.pause_state
+
+    def take_damp_failure(self) -> bool:
+        """True (and one failure used up) if this Damp must fail."""
+        with self._lock:
+            if self._damp_fails_left > 0:
+                self._damp_fails_left -= 1
+                return True
+            return False
+
+    @property
+    def damp_fails_left(self) -> int:
+        with self._lock:
+            return self._damp_fails_left

@@ -1,0 +1,191 @@
+"""``sim_bridge``: the MuJoCo G1 behind the robot's own Unitree SDK2 DDS interface, plus a ROS 2 node.
+
+    sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--ros-args -p faults:='{...}']
+
+Prints ``sim_bridge ready`` once every service and topic is up. SIGINT/SIGTERM stop it cleanly (exit 0).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from typing import Any
+
+READY_LINE = "sim_bridge ready"
+EXIT_BAD_CONFIG = 2
+EXIT_FAILED = 1
+
+log = logging.getLogger("g1_sim.bridge")
+
+
+def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="sim_bridge", description=__doc__.split("\n\n")[0])
+    p.add_argument("--speed", type=float, help="sim time per wall time (1 real time, 0 as fast as possible)")
+    p.add_argument("--domain", type=int, help="Unitree SDK2 DDS domain id (parameter dds_domain)")
+    p.add_argument("--interface", help="network interface of the DDS domain (parameter network_interface)")
+    p.add_argument("--faults", help="faults JSON (parameter faults)")
+    p.add_argument("--no-ros-publish", action="store_true", help="do not publish /joint_states, /odom, /clock")
+    p.add_argument("--assets", help="simulation assets folder (default: the installed ones)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random numbers")
+    args = p.parse_args(list(argv))
+    if args.speed is not None and args.speed < 0:
+        p.error("--speed must be >= 0")
+    return args
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, object]:
+    given = {"speed": args.speed, "dds_domain": args.domain, "network_interface": args.interface,
+             "faults": args.faults}  # fmt: skip
+    out: dict[str, object] = {k: v for k, v in given.items() if v is not None}
+    if args.no_ros_publish:
+        out["publish_ros"] = False
+    return out
+
+
+class _Stop:
+    """Set by SIGINT/SIGTERM; the main thread polls it."""
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+
+    def install(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: self.event.set())
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    logging.basicConfig(level=logging.INFO, format="[%(name)s] %(levelname)s: %(message)s", stream=sys.stderr)
+    stop = _Stop()
+    stop.install()
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+    from rclpy.utilities import remove_ros_args
+
+    args_in = list(sys.argv if argv is None else ["sim_bridge", *argv])
+    rclpy.init(args=args_in, signal_handler_options=SignalHandlerOptions.NO)
+    args = parse_cli(remove_ros_args(args_in)[1:])
+    node = executor = spin = bridge = None
+    code = 0
+    try:
+        from g1_sim.bridge.faults import FaultConfigError
+        from g1_sim.bridge.ros_face import BridgeNode
+
+        node = BridgeNode(overrides=_overrides(args))
+        try:
+            bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event)
+        except FaultConfigError as e:
+            node.get_logger().error(f"bad faults parameter: {e}")
+            return EXIT_BAD_CONFIG
+        if stop.event.is_set():
+            return 0
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        spin = threading.Thread(target=executor.spin, name="ros_spin", daemon=True)
+        spin.start()
+        bridge.start()
+        print(READY_LINE, flush=True)
+        while not stop.event.wait(0.2):
+            if not bridge.loop.running:
+                log.error("sim loop stopped: %r", bridge.loop.error)
+                code = EXIT_FAILED
+                break
+    finally:
+        if bridge is not None:
+            bridge.shutdown()
+        if executor is not None:
+            executor.shutdown()
+        if spin is not None:
+            spin.join(5.0)
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+class Bridge:
+    """Everything but the ROS executor: the robot, its RPC services, topics and the sim thread."""
+
+    def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event) -> None:
+        from g1_mode_manager.protocol import api_ids as api
+        from g1_mode_manager.protocol.dds import init_channels
+        from g1_sim.bridge.clock import Pacer, StampClock
+        from g1_sim.bridge.commands import CommandIntake
+        from g1_sim.bridge.faults import Faults, parse_faults
+        from g1_sim.bridge.rpc_services import (
+            RequestCounter,
+            SimServer,
+            motion_switcher_handlers,
+            sport_handlers,
+        )
+        from g1_sim.bridge.sim_loop import SimLoop
+        from g1_sim.bridge.status import STATUS_API_VERSION, STATUS_SERVICE, status_handlers
+        from g1_sim.bridge.streams import CommandSubscribers, StatePublishers
+        from g1_sim.firmware import SimG1
+
+        p = node.params()
+        self.faults = Faults(parse_faults(p.faults))
+        self.pacer = Pacer(p.speed)
+        node.on_faults = self.faults.set_json
+        node.on_speed = self.pacer.set_speed
+        t0 = time.monotonic()
+        self.robot = SimG1(assets, seed=seed)
+        log.info("robot ready in %.1f s (dt %.4f s)", time.monotonic() - t0, self.robot.dt)
+        init_channels(p.dds_domain, p.network_interface)
+        self.requests = RequestCounter()
+        self.servers = [
+            SimServer(api.LOCO_SERVICE, api.LOCO_API_VERSION, sport_handlers(self.robot, self.faults),
+                      faults=self.faults, counter=self.requests),
+            SimServer(api.MOTION_SWITCHER_SERVICE, api.MOTION_SWITCHER_API_VERSION,
+                      motion_switcher_handlers(self.robot), faults=self.faults, counter=self.requests),
+            SimServer(STATUS_SERVICE, STATUS_API_VERSION, status_handlers(self.status)),
+        ]  # fmt: skip
+        for server in self.servers:
+            if stop.is_set():
+                break
+            server.Start()
+        self.publishers = StatePublishers()
+        self.intake = CommandIntake(self.robot)
+        self.subscribers = CommandSubscribers(self.intake)
+        self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock())
+        self._params = p
+
+    def start(self) -> None:
+        self.loop.start()
+
+    def shutdown(self) -> None:
+        self.loop.stop()
+        for server in self.servers:
+            server.cancel_delayed()
+
+    def status(self) -> dict[str, Any]:
+        """Counters, sport state, base pose and real-time factor (the g1_sim status service's reply)."""
+        robot = self.robot
+        fsm_id, fsm_mode = robot.sport_state()
+        form, name = robot.check_mode()
+        b = robot.base_pose()
+        return {
+            "sim_time": robot.time,
+            "speed": self.pacer.speed,
+            "real_time_factor": self.loop.rate.real_time_factor,
+            "mean_real_time_factor": self.loop.rate.mean_real_time_factor,
+            "sport": {"fsm_id": fsm_id, "fsm_mode": fsm_mode, "active": robot.sport_active(), "mode": name,
+                      "form": form},
+            "base": {"position": b.position.tolist(), "quaternion": b.quaternion.tolist(),
+                     "linear_velocity": b.linear_velocity.tolist(),
+                     "angular_velocity": b.angular_velocity.tolist()},
+            "requests": self.requests.snapshot(),
+            "frames": self.intake.counts(),
+            "published": self.publishers.counts(),
+            "faults": self.faults.config.to_json(),
+            "damp_fails_left": self.faults.damp_fails_left,
+        }
+
+
+if __name__ == "__main__":
+    sys.exit(main())

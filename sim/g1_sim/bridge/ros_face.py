@@ -1,0 +1,139 @@
+"""The bridge's ROS 2 side: parameters (incl. faults at run time), /joint_states, /odom and /clock."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from g1_mode_manager.protocol.motors import JOINT_NAMES
+
+NODE_NAME = "g1_sim_bridge"
+ODOM_FRAME = "odom"
+BASE_FRAME = "pelvis"
+
+
+@dataclass(frozen=True)
+class BridgeParams:
+    network_interface: str
+    dds_domain: int
+    speed: float
+    faults: str
+    publish_ros: bool
+
+
+_DESCRIPTIONS = {
+    "network_interface": "Network interface of the Unitree SDK2 DDS domain ('lo' = loopback only, no multicast).",
+    "dds_domain": "Cyclone DDS domain id of the Unitree SDK2 topics and RPC services.",
+    "speed": "Sim time per wall time: 1 = real time, 3 = three times faster, 0 = as fast as possible.",
+    "faults": "Faults to inject, JSON: delay_s {api: s}, drop [api], error {api: code}, pause_state, damp_fails.",
+    "publish_ros": "Publish /joint_states, /odom and /clock (stamps in sim time from the start's wall time).",
+}
+_READ_ONLY = frozenset({"network_interface", "dds_domain"})
+
+
+def _quat_rotate_inverse(q_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """v (world frame) expressed in the body frame of orientation q."""
+    w, x, y, z = q_wxyz
+    rot = np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])  # fmt: skip
+    return rot.T @ np.asarray(v)
+
+
+def _time(stamp_ns: int) -> Time:
+    return Time(sec=stamp_ns // 1_000_000_000, nanosec=stamp_ns % 1_000_000_000)
+
+
+class BridgeNode(Node):
+    """Parameters are declared up front; run-time changes go through ``on_faults`` / ``on_speed``."""
+
+    def __init__(self, *, overrides: dict[str, object] | None = None) -> None:
+        super().__init__(NODE_NAME, parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()])
+        defaults: dict[str, object] = {"network_interface": "lo", "dds_domain": 0, "speed": 1.0, "faults": "",
+                                       "publish_ros": True}  # fmt: skip
+        for name, default in defaults.items():
+            self.declare_parameter(name, default, ParameterDescriptor(description=_DESCRIPTIONS[name],
+                                                                      read_only=name in _READ_ONLY))  # fmt: skip
+        self.publish_ros = bool(self.get_parameter("publish_ros").value)
+        self.on_faults: Callable[[str], None] | None = None
+        self.on_speed: Callable[[float], None] | None = None
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._joint_pub = self.create_publisher(JointState, "/joint_states", 10)
+        self._odom_pub = self.create_publisher(Odometry, "/odom", 10)
+        self._clock_pub = self.create_publisher(Clock, "/clock", 10)
+        self._joint_msg = JointState(name=list(JOINT_NAMES))
+        self._odom_msg = Odometry()
+        self._odom_msg.header.frame_id = ODOM_FRAME
+        self._odom_msg.child_frame_id = BASE_FRAME
+
+    def params(self) -> BridgeParams:
+        g = self.get_parameter
+        speed = float(g("speed").value)
+        return BridgeParams(
+            network_interface=str(g("network_interface").value),
+            dds_domain=int(g("dds_domain").value),
+            speed=speed,
+            faults=str(g("faults").value),
+            publish_ros=bool(g("publish_ros").value),
+        )
+
+    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        # Validate everything first, so a refused batch changes nothing.
+        for p in params:
+            if p.name == "speed":
+                if p.type_ not in (Parameter.Type.DOUBLE, Parameter.Type.INTEGER) or float(p.value) < 0:
+                    return SetParametersResult(successful=False, reason="speed must be a number >= 0")
+            elif p.name == "faults" and p.type_ != Parameter.Type.STRING:
+                return SetParametersResult(successful=False, reason="faults must be a JSON string")
+            elif p.name == "publish_ros" and p.type_ != Parameter.Type.BOOL:
+                return SetParametersResult(successful=False, reason="publish_ros must be true or false")
+        for p in params:
+            if p.name == "faults" and self.on_faults is not None:
+                try:
+                    self.on_faults(p.value)
+                except ValueError as e:
+                    self.get_logger().error(f"faults refused, previous faults kept: {e}")
+                    return SetParametersResult(successful=False, reason=str(e))
+                self.get_logger().info(f"faults set: {p.value or '{}'}")
+            elif p.name == "publish_ros":
+                self.publish_ros = bool(p.value)
+            elif p.name == "speed" and self.on_speed is not None:
+                self.on_speed(float(p.value))
+                self.get_logger().info(f"speed set to {float(p.value)}")
+        return SetParametersResult(successful=True)
+
+    def publish_state(self, stamp_ns: int, q: np.ndarray, dq: np.ndarray, tau: np.ndarray,
+                      position: np.ndarray, quat_wxyz: np.ndarray, lin_vel_world: np.ndarray,
+                      ang_vel_world: np.ndarray) -> None:  # fmt: skip
+        """Publish /clock, /joint_states and /odom (twist in the pelvis frame, as REP 105 wants)."""
+        stamp = _time(stamp_ns)
+        self._clock_pub.publish(Clock(clock=stamp))
+        j = self._joint_msg
+        j.header.stamp = stamp
+        j.position = q.tolist()
+        j.velocity = dq.tolist()
+        j.effort = tau.tolist()
+        self._joint_pub.publish(j)
+        o = self._odom_msg
+        o.header.stamp = stamp
+        pose = o.pose.pose
+        pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
+        w, x, y, z = (float(v) for v in quat_wxyz)
+        pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z = w, x, y, z
+        lin = _quat_rotate_inverse(quat_wxyz, lin_vel_world)
+        ang = _quat_rotate_inverse(quat_wxyz, ang_vel_world)
+        twist = o.twist.twist
+        twist.linear.x, twist.linear.y, twist.linear.z = (float(v) for v in lin)
+        twist.angular.x, twist.angular.y, twist.angular.z = (float(v) for v in ang)
+        self._odom_pub.publish(o)

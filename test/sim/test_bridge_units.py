@@ -1,0 +1,304 @@
+"""Sim bridge logic without MuJoCo or DDS: faults, RPC handlers, frame checks, lowstate packing, pacing."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pytest
+from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
+from unitree_sdk2py.utils.crc import CRC
+
+from g1_mode_manager.protocol import api_ids as api
+from g1_mode_manager.protocol.dds import apply_robot_type_compat
+from g1_mode_manager.protocol.idl import LowCmd_, LowState_
+from g1_sim.bridge import commands
+from g1_sim.bridge.clock import Pacer, RateMeter
+from g1_sim.bridge.faults import FaultConfigError, Faults, parse_faults
+from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
+from g1_sim.bridge.rpc_services import SimServer, motion_switcher_handlers, sport_handlers
+
+
+@dataclass
+class StandIn:
+    """Records calls; answers like a robot standing in fsm 4 with service "ai" selected."""
+
+    fsm_id: int = 4
+    active: bool = True
+    calls: list[tuple[str, Any]] = field(default_factory=list)
+
+    def sport_active(self) -> bool:
+        return self.active
+
+    def sport_state(self) -> tuple[int, int]:
+        return (self.fsm_id, 0)
+
+    def set_fsm_id(self, i: int) -> int:
+        self.calls.append(("set_fsm_id", i))
+        return api.OK
+
+    def get_fsm_id(self) -> tuple[int, int]:
+        return (api.OK, self.fsm_id)
+
+    def get_fsm_mode(self) -> tuple[int, int]:
+        return (api.OK, 0)
+
+    def set_balance_mode(self, m: int) -> int:
+        self.calls.append(("set_balance_mode", m))
+        return api.OK
+
+    def get_balance_mode(self) -> tuple[int, int]:
+        return (api.OK, 0)
+
+    def set_velocity(self, vx: float, vy: float, wz: float, d: float) -> int:
+        self.calls.append(("set_velocity", (vx, vy, wz, d)))
+        return api.OK
+
+    def set_speed_mode(self, m: int) -> int:
+        return api.OK
+
+    def set_stand_height(self, h: float) -> int:
+        return api.OK
+
+    def get_stand_height(self) -> tuple[int, float]:
+        return (api.OK, 0.75)
+
+    def set_swing_height(self, h: float) -> int:
+        return api.OK
+
+    def get_swing_height(self) -> tuple[int, float]:
+        return (api.OK, 0.08)
+
+    def check_mode(self) -> tuple[str, str]:
+        return ("0", "ai" if self.active else "")
+
+    def select_mode(self, name: str) -> int:
+        self.calls.append(("select_mode", name))
+        self.active = True
+        return api.OK
+
+    def release_mode(self) -> int:
+        self.active = False
+        return api.OK
+
+    def get_silent(self) -> tuple[int, bool]:
+        return (api.OK, False)
+
+    def set_silent(self, b: bool) -> int:
+        return api.OK
+
+    def apply_arm_sdk(self, q, dq, tau, kp, kd, weight) -> None:  # type: ignore[no-untyped-def]
+        self.calls.append(("arm_sdk", (np.array(q), weight)))
+
+    def apply_lowcmd(self, q, dq, tau, kp, kd, enabled) -> None:  # type: ignore[no-untyped-def]
+        self.calls.append(("lowcmd", (np.array(q), np.array(enabled))))
+
+
+# --- faults ------------------------------------------------------------------------------------
+
+
+def test_faults_parse_all_keys() -> None:
+    c = parse_faults('{"delay_s": {"1002": 5.0}, "drop": [7101], "error": {"7101": 3104}, '
+                     '"pause_state": true, "damp_fails": 2}')  # fmt: skip
+    assert c.delay_s == {1002: 5.0}
+    assert c.drop == {7101}
+    assert c.error == {7101: 3104}
+    assert c.pause_state and c.damp_fails == 2
+    assert parse_faults("") == parse_faults("{}")
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["{", "[]", '{"dely_s": {}}', '{"delay_s": {"x": 1}}', '{"delay_s": {"1002": -1}}', '{"drop": 7101}',
+     '{"error": {"7101": 0}}', '{"error": {"7101": 1.5}}', '{"pause_state": 1}', '{"damp_fails": -1}',
+     '{"damp_fails": true}', '{"drop": [true]}'],
+)  # fmt: skip
+def test_faults_invalid_is_refused_and_previous_kept(text: str) -> None:
+    faults = Faults(parse_faults('{"drop": [1001]}'))
+    with pytest.raises(FaultConfigError):
+        faults.set_json(text)
+    assert faults.drops(1001)
+
+
+def test_damp_fails_budget_is_used_up_and_restarts_on_set() -> None:
+    faults = Faults(parse_faults('{"damp_fails": 2}'))
+    assert [faults.take_damp_failure() for _ in range(3)] == [True, True, False]
+    faults.set_json('{"damp_fails": 1}')
+    assert faults.take_damp_failure() and not faults.take_damp_failure()
+
+
+# --- RPC handlers --------------------------------------------------------------------------------
+
+
+def _server(robot: StandIn, faults: Faults | None = None) -> SimServer:
+    return SimServer(api.LOCO_SERVICE, api.LOCO_API_VERSION, sport_handlers(robot, faults or Faults()), faults=faults)
+
+
+def test_sport_getters_reply_data_json() -> None:
+    s = _server(StandIn(fsm_id=500))
+    assert s.handle_for_test(api.LOCO_GET_FSM_ID, "") == (0, '{"data": 500}')
+    code, data = s.handle_for_test(api.LOCO_GET_STAND_HEIGHT, "{}")
+    assert code == 0 and json.loads(data) == {"data": 0.75}
+
+
+def test_sport_setters_parse_parameters() -> None:
+    robot = StandIn()
+    s = _server(robot)
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 500}') == (0, "")
+    assert s.handle_for_test(api.LOCO_SET_VELOCITY, '{"velocity": [0.5, 0, 0.1], "duration": 864000.0}')[0] == 0
+    assert robot.calls == [("set_fsm_id", 500), ("set_velocity", (0.5, 0.0, 0.1, 864000.0))]
+
+
+@pytest.mark.parametrize(
+    ("api_id", "parameter"),
+    [(api.LOCO_SET_FSM_ID, "{not json"), (api.LOCO_SET_FSM_ID, '{"data": "1"}'), (api.LOCO_SET_FSM_ID, "[1]"),
+     (api.LOCO_SET_FSM_ID, '{"data": 1.5}'), (api.LOCO_SET_VELOCITY, '{"velocity": [1, 2]}'),
+     (api.LOCO_SET_VELOCITY, '{"velocity": [1, 2, NaN]}'), (api.LOCO_SET_BALANCE_MODE, "{}")],
+)  # fmt: skip
+def test_malformed_parameter_answers_3204_and_does_nothing(api_id: int, parameter: str) -> None:
+    robot = StandIn()
+    assert _server(robot).handle_for_test(api_id, parameter) == (api.ERR_SERVER_API_PARAMETER, "")
+    assert robot.calls == []
+
+
+def test_sport_answers_3203_while_released() -> None:
+    robot = StandIn(active=False)
+    s = _server(robot)
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 1}') == (api.ERR_SERVER_API_NOT_IMPL, "")
+    assert s.handle_for_test(api.LOCO_GET_FSM_ID, "{}") == (api.ERR_SERVER_API_NOT_IMPL, "")
+    assert robot.calls == []
+
+
+def test_unknown_api_is_not_implemented() -> None:
+    assert _server(StandIn()).handle_for_test(api.LOCO_SET_ARM_TASK, "{}")[0] == api.ERR_SERVER_API_NOT_IMPL
+
+
+def test_damp_fails_and_error_faults() -> None:
+    robot = StandIn()
+    faults = Faults(parse_faults('{"damp_fails": 1, "error": {"7105": 3104}}'))
+    s = _server(robot, faults)
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 1}')[0] == api.ERR_CLIENT_API_TIMEOUT
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 1}')[0] == api.OK
+    assert s.handle_for_test(api.LOCO_SET_VELOCITY, '{"velocity": [0, 0, 0], "duration": 1}')[0] == 3104
+    assert robot.calls == [("set_fsm_id", 1)]
+
+
+def test_motion_switcher_handlers() -> None:
+    robot = StandIn()
+    s = SimServer(api.MOTION_SWITCHER_SERVICE, api.MOTION_SWITCHER_API_VERSION, motion_switcher_handlers(robot))
+    assert json.loads(s.handle_for_test(api.MS_CHECK_MODE, "{}")[1]) == {"form": "0", "name": "ai"}
+    assert s.handle_for_test(api.MS_RELEASE_MODE, "{}")[0] == 0
+    assert json.loads(s.handle_for_test(api.MS_CHECK_MODE, "{}")[1])["name"] == ""
+    assert s.handle_for_test(api.MS_SELECT_MODE, '{"name": 3}')[0] == api.ERR_SERVER_API_PARAMETER
+    assert s.handle_for_test(api.MS_SELECT_MODE, '{"name": "ai"}')[0] == 0
+    assert json.loads(s.handle_for_test(api.MS_GET_SILENT, "{}")[1]) == {"silent": False}
+
+
+# --- rt/lowcmd and rt/arm_sdk frames ---------------------------------------------------------------
+
+
+def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weight: float = 1.0) -> LowCmd_:
+    msg = unitree_hg_msg_dds__LowCmd_()
+    msg.mode_machine = mode_machine
+    for i in range(29):
+        msg.motor_cmd[i].mode = mode
+        msg.motor_cmd[i].q = 0.01 * i
+        msg.motor_cmd[i].kp = 40.0
+    msg.motor_cmd[29].q = weight
+    msg.crc = CRC().Crc(msg) ^ (0 if good_crc else 1)
+    return msg
+
+
+def test_lowcmd_checks_crc_mode_machine_and_debug_mode() -> None:
+    robot = StandIn(active=False)
+    intake = commands.CommandIntake(robot)
+    assert intake.on_lowcmd(_frame(good_crc=False)) == commands.BAD_CRC
+    assert intake.on_lowcmd(_frame(mode_machine=4)) == commands.BAD_MODE_MACHINE
+    assert intake.on_lowcmd(_frame()) is None
+    assert intake.on_lowcmd(_frame(mode=0)) is None
+    robot.active = True
+    assert intake.on_lowcmd(_frame()) == commands.NOT_DEBUG_MODE
+    applied = [c for c in robot.calls if c[0] == "lowcmd"]
+    assert len(applied) == 2 and applied[0][1][1].all() and not applied[1][1][1].any()
+    assert np.allclose(applied[0][1][0], 0.01 * np.arange(29), atol=1e-6)
+    assert intake.counts()["lowcmd"] == {"received": 5, "accepted": 2, "bad_crc": 1, "bad_mode_machine": 1,
+                                         "motors_disabled": 1, "not_debug_mode": 1}  # fmt: skip
+
+
+def test_arm_sdk_checks_crc_and_standing_not_mode_machine() -> None:
+    robot = StandIn()
+    intake = commands.CommandIntake(robot)
+    assert intake.on_arm_sdk(_frame(good_crc=False)) == commands.BAD_CRC
+    assert intake.on_arm_sdk(_frame(mode_machine=0, mode=0, weight=1.7)) is None
+    robot.fsm_id = 1
+    assert intake.on_arm_sdk(_frame()) == commands.NOT_STANDING
+    (call,) = [c for c in robot.calls if c[0] == "arm_sdk"]
+    q, weight = call[1]
+    assert weight == 1.0 and q.shape == (17,) and q[0] == pytest.approx(0.12)
+    counts = intake.counts()["arm_sdk"]
+    assert counts["mode_machine_not_5"] == 1 and counts["bad_crc"] == 1 and counts["not_standing"] == 1
+
+
+def test_non_finite_frames_are_ignored() -> None:
+    robot = StandIn()
+    intake = commands.CommandIntake(robot)
+    assert intake.on_arm_sdk(_frame(weight=float("nan"))) == commands.NON_FINITE
+    assert robot.calls == []
+
+
+# --- rt/lowstate packing -------------------------------------------------------------------------
+
+
+def test_lowstate_packing_matches_cyclonedds_and_sdk_crc() -> None:
+    apply_robot_type_compat()
+    packer = LowStatePacker()
+    self_check(packer)
+    q = np.linspace(-1, 1, 29)
+    packer.pack(q, q * 2, q * 3, np.array([1, 0, 0, 0]), np.ones(3), np.ones(3) * 9.8, np.zeros(3), 42)
+    decoded = LowState_.deserialize(packer.frame_bytes())
+    assert decoded.mode_machine == 5 and decoded.tick == 42
+    assert decoded.motor_state[28].q == pytest.approx(1.0) and decoded.motor_state[28].tau_est == pytest.approx(3.0)
+    assert decoded.crc == CRC().Crc(decoded)
+
+
+# --- pacing --------------------------------------------------------------------------------------
+
+
+class FakeWall:
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.slept: list[float] = []
+
+    def clock(self) -> float:
+        return self.now
+
+    def sleep(self, s: float) -> None:
+        self.slept.append(s)
+        self.now += s
+
+
+def test_pacer_holds_speed_and_does_not_sprint_after_lag() -> None:
+    wall = FakeWall()
+    pacer = Pacer(2.0, clock=wall.clock, sleep=wall.sleep)
+    pacer.pace(0.0)
+    pacer.pace(1.0)  # 1 s of sim at 2x: 0.5 s of wall
+    assert wall.now == pytest.approx(0.5)
+    wall.now += 10.0  # the sim stalled
+    pacer.pace(1.002)
+    pacer.pace(1.2)
+    assert wall.now == pytest.approx(10.5 + 0.099)
+    fast = Pacer(0.0, clock=wall.clock, sleep=wall.sleep)
+    fast.pace(0.0)
+    fast.pace(100.0)
+    assert wall.now == pytest.approx(10.599)
+
+
+def test_rate_meter() -> None:
+    wall = FakeWall()
+    meter = RateMeter(1.0, clock=wall.clock)
+    for k in range(5):
+        meter.update(3.0 * k)
+        wall.now += 1.0
+    assert meter.real_time_factor == pytest.approx(3.0) and meter.mean_real_time_factor == pytest.approx(3.0)
