@@ -1,0 +1,182 @@
+"""The real node (rclpy, DDS on loopback) over the fake robot port: services, bad input, e-stop priority.
+
+End-to-end behaviour against the simulated G1 is in test/e2e; here the robot is a fake so that
+faults (a SelectMode held for seconds) are exact and the tests are fast.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+import rclpy
+from g1_mode_manager_msgs.msg import Mode
+from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from geometry_msgs.msg import Twist
+from rclpy.executors import MultiThreadedExecutor
+from std_srvs.srv import Trigger
+
+from fakes.fake_robot import RELEASED
+from fakes.fake_robot_port import FakeRobotPort
+from g1_mode_manager.node.mode_manager import MODE_QOS, ModeManagerNode
+
+
+class Harness:
+    def __init__(self, port: FakeRobotPort) -> None:
+        self.port = port
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = ModeManagerNode(port_factory=lambda _s: port, context=self.context)
+        self.client = rclpy.create_node("test_client", context=self.context)
+        self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.client)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def call(self, srv_type, name: str, request, timeout_s: float = 20.0):
+        cli = self.client.create_client(srv_type, name)
+        assert cli.wait_for_service(timeout_sec=10.0), f"{name} not available"
+        future = cli.call_async(request)
+        done = threading.Event()
+        future.add_done_callback(lambda _f: done.set())
+        assert done.wait(timeout_s), f"{name} did not answer"
+        return future.result()
+
+    def set_mode(self, name: str = "", number: int = 0) -> SetMode.Response:
+        return self.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode=number, mode_name=name))
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.thread.join(5.0)
+        self.node.shutdown()
+        self.node.destroy_node()
+        self.client.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+@pytest.fixture
+def harness():
+    h = Harness(FakeRobotPort())
+    yield h
+    h.close()
+
+
+def _wait(predicate, timeout_s: float = 5.0) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.02)
+    return predicate()
+
+
+@pytest.mark.parametrize(
+    ("name", "number", "needle"),
+    [("warp_speed", 0, "unknown mode name 'warp_speed'"), ("", 42, "unknown mode number 42"),
+     ("", 0, "no mode given"), ("uninitialized", 0, "")],
+)
+def test_bad_mode_requests_get_clear_errors_and_change_nothing(harness, name, number, needle) -> None:
+    r = harness.set_mode(name, number)
+    assert not r.success and needle in r.message and r.message
+    assert r.mode == Mode.UNINITIALIZED and r.mode_name == "UNINITIALIZED"
+    assert all(c.name == "connect" for c in harness.port.calls)  # no mode service was touched
+
+
+def test_set_mode_by_name_case_insensitive_and_mode_is_latched(harness) -> None:
+    r = harness.set_mode("High_Level")
+    assert r.success and r.mode == Mode.HIGH_LEVEL, r.message
+    got: list[Mode] = []
+    harness.client.create_subscription(Mode, "/g1_mode_manager/mode", got.append, MODE_QOS)  # joins late
+    assert _wait(lambda: any(m.mode == Mode.HIGH_LEVEL for m in got))
+    assert got[-1].name == "HIGH_LEVEL" and got[-1].high_level_service_active
+
+
+def test_cmd_vel_reaches_the_port_only_in_high_level(harness) -> None:
+    pub = harness.client.create_publisher(Twist, "/cmd_vel", 10)
+    msg = Twist()
+    msg.linear.x = 0.5
+    assert _wait(lambda: pub.get_subscription_count() >= 1)
+    harness.set_mode("idle")
+    for _ in range(10):
+        pub.publish(msg)
+        time.sleep(0.02)
+    assert harness.port.stream("set_velocity") == []
+    harness.set_mode("high_level")
+    assert _wait(lambda: (pub.publish(msg) or True) and len(harness.port.stream("set_velocity")) >= 3)
+    assert harness.port.stream("set_velocity")[-1].args[0] > 0.0
+
+
+def test_estop_preempts_a_held_select_mode_and_fires_damp_at_once(harness) -> None:
+    harness.port.set_service(RELEASED)
+    hold = harness.port.hold("select_mode", timeout_s=10.0)
+    with ThreadPoolExecutor(1) as pool:
+        pending = pool.submit(harness.set_mode, "high_level")
+        assert hold.wait_entered(10.0)
+        t0 = time.monotonic()
+        estop = harness.call(Trigger, "/g1_mode_manager/estop", Trigger.Request(), timeout_s=5.0)
+        elapsed = time.monotonic() - t0
+        hold.release()
+        r = pending.result(20.0)
+    names = harness.port.names()
+    first_damp = names.index("damp_no_reply")
+    assert first_damp < len(names) - 1
+    assert not r.success and r.mode == Mode.EMERGENCY
+    assert harness.node.machine.mode.name == "EMERGENCY"
+    print(f"e-stop answered {elapsed * 1000:.0f} ms after the request while SelectMode was held: {estop.message}")
+
+
+def test_after_emergency_every_set_mode_is_refused_and_late_subscriber_sees_it(harness) -> None:
+    assert harness.call(Trigger, "/g1_mode_manager/estop", Trigger.Request()).success
+    for name in ("idle", "high_level", "low_level"):
+        r = harness.set_mode(name)
+        assert not r.success and r.mode == Mode.EMERGENCY
+    got: list[Mode] = []
+    harness.client.create_subscription(Mode, "/g1_mode_manager/mode", got.append, MODE_QOS)
+    assert _wait(lambda: bool(got)) and got[-1].name == "EMERGENCY" and got[-1].damp_confirmed
+
+
+def test_estop_topic_triggers_emergency(harness) -> None:
+    from std_msgs.msg import Bool
+
+    pub = harness.client.create_publisher(Bool, "/estop", 10)
+    assert _wait(lambda: pub.get_subscription_count() >= 1)
+    pub.publish(Bool(data=False))
+    time.sleep(0.2)
+    assert harness.node.machine.mode.name == "UNINITIALIZED"
+    pub.publish(Bool(data=True))
+    assert _wait(lambda: harness.node.machine.mode.name == "EMERGENCY")
+
+
+def test_service_flood_from_several_clients_keeps_node_up(harness) -> None:
+    names = ["high_level", "idle", "bogus", "low_level", "HIGH_LEVEL", ""] * 5
+    with ThreadPoolExecutor(6) as pool:
+        results = list(pool.map(harness.set_mode, names))
+    assert len(results) == len(names)
+    assert all(r.message for r in results)  # every answer says what happened
+    assert any("unknown mode name 'bogus'" in r.message for r in results)
+    assert harness.set_mode("idle").mode_name in ("IDLE",)
+
+
+def test_loco_commands_refused_outside_high_level_and_while_dynamic(harness) -> None:
+    def loco(cmd: str, value: int = 0) -> LocoCommand.Response:
+        return harness.call(LocoCommand, "/g1_mode_manager/loco_command", LocoCommand.Request(command=cmd, value=value))
+
+    assert "UNINITIALIZED" in loco("stand_up").message
+    harness.set_mode("idle")
+    r = loco("start")
+    assert not r.success and "only in HIGH_LEVEL" in r.message
+    assert loco("damp").success  # damping is always allowed while the service can answer
+    harness.set_mode("high_level")
+    assert loco("start").success
+    assert harness.port.stream("set_fsm_id")[-1].args == (500,)
+    assert "unknown command" in loco("fly").message
+    assert "value from 0 to 3" in loco("speed_mode", 9).message
+    from g1_mode_manager.core.port import SportState
+
+    harness.port.sport = SportState(500, 1, 0, 0.0, 0.01)
+    r = loco("sit")
+    assert not r.success and "dynamic" in r.message
+    assert loco("damp").success
