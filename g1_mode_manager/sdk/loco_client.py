@@ -1,0 +1,115 @@
+"""The G1's full loco API ("sport" service) over the SDK's RPC client, raising RobotError on every failure.
+
+The SDK's Python ``LocoClient`` drops error codes, lacks several calls and starts walking with fsm 200
+(older firmware); this one registers every api id, sends Start as 500, and returns data or raises.
+"""
+
+from __future__ import annotations
+
+import math
+
+from g1_mode_manager.protocol import api_ids as api
+from g1_mode_manager.protocol.fsm import SPEED_MODE_MAX_SPEED, BalanceMode, FsmId
+from g1_mode_manager.sdk.rpc_client import RpcClient, parse_number
+
+
+def _finite(name: str, **values: float) -> None:
+    for key, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise ValueError(f"{name}: {key} must be a finite number, got {value!r}")
+
+
+class LocoClient(RpcClient):
+    """Loco calls of the G1. Each takes an optional ``timeout_s`` (default: the client's)."""
+
+    def __init__(self, timeout_s: float = 1.0) -> None:
+        super().__init__(api.LOCO_SERVICE, api.LOCO_API_VERSION, api.LOCO_GET_APIS + api.LOCO_SET_APIS, timeout_s)
+
+    # --- getters --------------------------------------------------------------------------------
+    def get_fsm_id(self, *, timeout_s: float | None = None) -> int:
+        return parse_number("GetFsmId", self.call("GetFsmId", api.LOCO_GET_FSM_ID, timeout_s=timeout_s), int)
+
+    def get_fsm_mode(self, *, timeout_s: float | None = None) -> int:
+        return parse_number("GetFsmMode", self.call("GetFsmMode", api.LOCO_GET_FSM_MODE, timeout_s=timeout_s), int)
+
+    def get_balance_mode(self, *, timeout_s: float | None = None) -> int:
+        data = self.call("GetBalanceMode", api.LOCO_GET_BALANCE_MODE, timeout_s=timeout_s)
+        return parse_number("GetBalanceMode", data, int)
+
+    def get_stand_height(self, *, timeout_s: float | None = None) -> float:
+        data = self.call("GetStandHeight", api.LOCO_GET_STAND_HEIGHT, timeout_s=timeout_s)
+        return parse_number("GetStandHeight", data, float)
+
+    def get_swing_height(self, *, timeout_s: float | None = None) -> float:
+        data = self.call("GetSwingHeight", api.LOCO_GET_SWING_HEIGHT, timeout_s=timeout_s)
+        return parse_number("GetSwingHeight", data, float)
+
+    # --- setters --------------------------------------------------------------------------------
+    def set_fsm_id(self, fsm_id: int, *, timeout_s: float | None = None) -> None:
+        self.call("SetFsmId", api.LOCO_SET_FSM_ID, {"data": int(fsm_id)}, timeout_s=timeout_s)
+
+    def set_balance_mode(self, mode: int, *, timeout_s: float | None = None) -> None:
+        self.call("SetBalanceMode", api.LOCO_SET_BALANCE_MODE, {"data": int(mode)}, timeout_s=timeout_s)
+
+    def set_stand_height(self, height: float, *, timeout_s: float | None = None) -> None:
+        _finite("SetStandHeight", height=height)
+        self.call("SetStandHeight", api.LOCO_SET_STAND_HEIGHT, {"data": float(height)}, timeout_s=timeout_s)
+
+    def set_swing_height(self, height: float, *, timeout_s: float | None = None) -> None:
+        _finite("SetSwingHeight", height=height)
+        self.call("SetSwingHeight", api.LOCO_SET_SWING_HEIGHT, {"data": float(height)}, timeout_s=timeout_s)
+
+    def set_velocity(self, vx: float, vy: float, wz: float, duration: float = api.MOVE_DURATION_S, *,
+                     timeout_s: float | None = None) -> None:  # fmt: skip
+        """SetVelocity: body velocity (m/s, m/s, rad/s) held for ``duration`` s. NaN/inf raise ValueError."""
+        _finite("SetVelocity", vx=vx, vy=vy, wz=wz, duration=duration)
+        if duration < 0:
+            raise ValueError(f"SetVelocity: duration must be >= 0, got {duration!r}")
+        parameter = {"velocity": [float(vx), float(vy), float(wz)], "duration": float(duration)}
+        self.call("SetVelocity", api.LOCO_SET_VELOCITY, parameter, timeout_s=timeout_s)
+
+    def set_speed_mode(self, mode: int, *, timeout_s: float | None = None) -> None:
+        if int(mode) not in SPEED_MODE_MAX_SPEED:
+            raise ValueError(f"SetSpeedMode: mode must be one of {sorted(SPEED_MODE_MAX_SPEED)}, got {mode!r}")
+        self.call("SetSpeedMode", api.LOCO_SET_SPEED_MODE, {"data": int(mode)}, timeout_s=timeout_s)
+
+    # --- high-level helpers (G1_FACTS section 3) ---------------------------------------------------
+    def damp(self, *, timeout_s: float | None = None) -> None:
+        self.set_fsm_id(FsmId.DAMP, timeout_s=timeout_s)
+
+    def damp_no_reply(self) -> None:
+        """SetFsmId(1) flagged no-reply: sent at once, nothing awaited (the e-stop's first shot)."""
+        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, {"data": int(FsmId.DAMP)})
+
+    def zero_torque(self, *, timeout_s: float | None = None) -> None:
+        self.set_fsm_id(FsmId.ZERO_TORQUE, timeout_s=timeout_s)
+
+    def squat(self, *, timeout_s: float | None = None) -> None:
+        self.set_fsm_id(FsmId.SQUAT, timeout_s=timeout_s)
+
+    def sit(self, *, timeout_s: float | None = None) -> None:
+        self.set_fsm_id(FsmId.SIT, timeout_s=timeout_s)
+
+    def stand_up(self, *, timeout_s: float | None = None) -> None:
+        """Lock standing (fsm 4); the robot needs a Damp first."""
+        self.set_fsm_id(FsmId.STAND_UP, timeout_s=timeout_s)
+
+    def start(self, *, timeout_s: float | None = None) -> None:
+        """Walk mode, fsm 500 (current firmware; the SDK fork sends 200)."""
+        self.set_fsm_id(FsmId.START, timeout_s=timeout_s)
+
+    def balance_stand(self, *, timeout_s: float | None = None) -> None:
+        self.set_balance_mode(BalanceMode.BALANCE_STAND, timeout_s=timeout_s)
+
+    def continuous_gait(self, flag: bool, *, timeout_s: float | None = None) -> None:
+        mode = BalanceMode.CONTINUOUS_GAIT if flag else BalanceMode.BALANCE_STAND
+        self.set_balance_mode(mode, timeout_s=timeout_s)
+
+    def move(self, vx: float, vy: float, wz: float, continuous: bool = False, *,
+             timeout_s: float | None = None) -> None:  # fmt: skip
+        """SetVelocity for 1 s, or for 10 days when ``continuous`` (until the next command)."""
+        duration = api.MOVE_CONTINUOUS_DURATION_S if continuous else api.MOVE_DURATION_S
+        self.set_velocity(vx, vy, wz, duration, timeout_s=timeout_s)
+
+    def stop_move(self, *, timeout_s: float | None = None) -> None:
+        self.set_velocity(0.0, 0.0, 0.0, timeout_s=timeout_s)

@@ -1,0 +1,192 @@
+"""UnitreeRobot: the RobotPort over Unitree SDK2 DDS (no ROS here).
+
+``connect()`` creates every DDS entity once: the SDK sleeps in each constructor (RPC client 0.5 s,
+writer 0.2 s), so connect takes about 1.4 s plus the motion switcher's readiness probe; no call
+after it creates anything. Calls are safe from several threads at once: the e-stop thread's
+``damp`` goes through the loco client while another thread waits in ``select_mode`` on the motion
+switcher client (a separate client with its own, longer timeout), and each call has its own deadline.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+from g1_mode_manager.core.port import MotorCommand, RobotError, SportState
+from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
+from g1_mode_manager.protocol.dds import init_channels
+from g1_mode_manager.protocol.idl import SportModeState_
+from g1_mode_manager.sdk.arm_sdk import ArmSdkWriter
+from g1_mode_manager.sdk.loco_client import LocoClient
+from g1_mode_manager.sdk.lowcmd import LowCmdWriter
+from g1_mode_manager.sdk.motion_switcher import MotionSwitcherClient
+from g1_mode_manager.sdk.state_readers import LowStateReader, SportStateReader
+
+_log = logging.getLogger(__name__)
+P = TypeVar("P")
+
+
+class UnitreeRobot:
+    """The G1 over Unitree SDK2: implements ``core.port.RobotPort``.
+
+    ``rpc_timeout_s`` bounds each loco call; motion switcher calls get ``mode_timeout_s`` (SelectMode
+    can take seconds); the mode calls also take their own ``timeout_s``.
+    """
+
+    def __init__(self, domain: int, interface: str, rpc_timeout_s: float = 1.0, *, mode_timeout_s: float = 5.0,
+                 ready_budget_s: float = 3.0) -> None:  # fmt: skip
+        if not rpc_timeout_s > 0 or not mode_timeout_s > 0:
+            raise ValueError("timeouts must be > 0")
+        self.domain = int(domain)
+        self.interface = interface
+        self.rpc_timeout_s = float(rpc_timeout_s)
+        self.mode_timeout_s = float(mode_timeout_s)
+        self.ready_budget_s = float(ready_budget_s)
+        self._sport_listener: Callable[[SportState], None] | None = None
+        self._connect_lock = threading.Lock()
+        self._loco: LocoClient | None = None
+        self._switcher: MotionSwitcherClient | None = None
+        self._arm: ArmSdkWriter | None = None
+        self._lowcmd: LowCmdWriter | None = None
+        self._lowstate: LowStateReader | None = None
+        self._sport: SportStateReader | None = None
+        self._ready = False
+        self._closed = False
+        #: Seconds the last connect() took (entity creation, then probe).
+        self.connect_time_s: float | None = None
+        self.create_time_s: float | None = None
+
+    # --- connection -------------------------------------------------------------------------------
+    def connect(self) -> None:
+        """Create the DDS domain, clients, readers and writers once, then wait until the motion switcher
+        answers (bounded by ``ready_budget_s``). Idempotent; after a failed probe, calling it again
+        only probes again. Raises RobotError if the motion switcher never answered."""
+        with self._connect_lock:
+            if self._closed:
+                raise RobotError("connect", ERR_CLIENT_SEND, "robot port was closed")
+            if self._ready:
+                return
+            start = time.monotonic()
+            if self._loco is None:
+                init_channels(self.domain, self.interface)  # robot type compat applied before any topic
+                self._lowstate = LowStateReader()
+                self._sport = SportStateReader(self._relay_sport_state)
+                self._loco = LocoClient(self.rpc_timeout_s)
+                self._switcher = MotionSwitcherClient(self.mode_timeout_s)
+                self._arm = ArmSdkWriter()
+                self._lowcmd = LowCmdWriter(self._lowstate_mode_machine)
+                self.create_time_s = time.monotonic() - start
+            try:
+                self._switcher.wait_ready(self.ready_budget_s)
+            except RobotError as error:
+                raise RobotError("connect", error.code, f"motion_switcher did not answer within "
+                                 f"{self.ready_budget_s:.1f} s (domain {self.domain}, "
+                                 f"interface {self.interface!r})") from error  # fmt: skip
+            finally:
+                self.connect_time_s = time.monotonic() - start
+            self._ready = True
+            _log.info("connected in %.2f s (entities %.2f s)", self.connect_time_s, self.create_time_s or 0.0)
+
+    def probe(self, budget_s: float | None = None) -> dict[str, str]:
+        """Wait (bounded) until both services answer; returns their api versions. Raises RobotError."""
+        budget = self.ready_budget_s if budget_s is None else budget_s
+        return {client.service: client.wait_ready(budget) for client in (self.motion_switcher, self.loco)}
+
+    @property
+    def loco(self) -> LocoClient:
+        """The full loco API (stand/swing height, gait helpers...) beyond RobotPort."""
+        return self._need(self._loco, "loco")
+
+    @property
+    def motion_switcher(self) -> MotionSwitcherClient:
+        return self._need(self._switcher, "motion_switcher")
+
+    def _need(self, part: P | None, call: str) -> P:
+        if part is None or self._closed:
+            raise RobotError(call, ERR_CLIENT_SEND, "not connected: call connect() first")
+        return part
+
+    def _lowstate_mode_machine(self) -> int | None:
+        return None if self._lowstate is None else self._lowstate.mode_machine
+
+    # --- mode services ----------------------------------------------------------------------------
+    def check_mode(self, timeout_s: float | None = None) -> str:
+        return self.motion_switcher.check_mode(timeout_s=timeout_s)
+
+    def select_mode(self, name: str, timeout_s: float | None = None) -> None:
+        self.motion_switcher.select_mode(name, timeout_s=timeout_s)
+
+    def release_mode(self, timeout_s: float | None = None) -> None:
+        self.motion_switcher.release_mode(timeout_s=timeout_s)
+
+    def damp(self, timeout_s: float | None = None) -> None:
+        self.loco.damp(timeout_s=timeout_s)
+
+    def damp_no_reply(self) -> None:
+        self.loco.damp_no_reply()
+
+    # --- loco -------------------------------------------------------------------------------------
+    def set_fsm_id(self, fsm_id: int) -> None:
+        self.loco.set_fsm_id(fsm_id)
+
+    def get_fsm_id(self) -> int:
+        return self.loco.get_fsm_id()
+
+    def get_fsm_mode(self) -> int:
+        return self.loco.get_fsm_mode()
+
+    def set_balance_mode(self, mode: int) -> None:
+        self.loco.set_balance_mode(mode)
+
+    def set_speed_mode(self, mode: int) -> None:
+        self.loco.set_speed_mode(mode)
+
+    def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
+        self.loco.set_velocity(vx, vy, wz, duration_s)
+
+    # --- streams ----------------------------------------------------------------------------------
+    def write_arm_sdk(self, targets: Sequence[MotorCommand], weight: float) -> None:
+        self._need(self._arm, "arm_sdk").write(targets, weight)
+
+    def write_lowcmd(self, commands: Sequence[MotorCommand]) -> None:
+        self._need(self._lowcmd, "lowcmd").write(commands)
+
+    def sport_state(self) -> SportState | None:
+        return None if self._sport is None else self._sport.state()
+
+    def set_sport_state_listener(self, listener: Callable[[SportState], None] | None) -> None:
+        """Call ``listener`` with every rt/sportmodestate sample (age 0), in the DDS listener thread:
+        keep it short. None removes it. May be set before or after connect()."""
+        self._sport_listener = listener
+
+    def _relay_sport_state(self, sample: SportModeState_) -> None:
+        listener = self._sport_listener
+        if listener is not None:
+            listener(SportState(fsm_id=int(sample.fsm_id), fsm_mode=int(sample.fsm_mode), task_id=int(sample.task_id),
+                                task_time=float(sample.task_time), age_s=0.0))  # fmt: skip
+
+    def lowstate_age_s(self) -> float | None:
+        return None if self._lowstate is None else self._lowstate.age_s()
+
+    def joint_positions(self) -> Sequence[float] | None:
+        return None if self._lowstate is None else self._lowstate.joint_positions()
+
+    def mode_machine(self) -> int | None:
+        """mode_machine of the last rt/lowstate (copied into every LowCmd_), None before the first."""
+        return self._lowstate_mode_machine()
+
+    def close(self) -> None:
+        """Stop readers and writers; later calls raise RobotError. (The SDK's RPC clients have no close.)"""
+        with self._connect_lock:
+            if self._closed:
+                return
+            self._closed = True
+            for part in (self._sport, self._lowstate, self._arm, self._lowcmd):
+                if part is not None:
+                    try:
+                        part.close()
+                    except Exception:  # closing is best effort; the process may be exiting
+                        _log.exception("closing %s failed", type(part).__name__)

@@ -1,0 +1,160 @@
+"""An RPC client on the SDK's ``Client`` base that raises instead of returning codes, with per-call timeouts.
+
+The SDK's ``Client._Call`` reads one timeout shared by every thread (``SetTimeout``), waits up to twice
+that long (once for the topic match, once for the reply), never removes the future of a timed-out call
+(``RequestFutureQueue.Remove`` tests the builtin ``id``), and returns bare codes that callers drop.
+Here each call has its own deadline, ids are unique across threads, stale futures are removed, and
+every failure raises :class:`RobotError`. The SDK's transport is reused as is: its ``ClientStub``
+keys futures by request id under a lock and writes through a thread-safe DDS writer, so calls from
+several threads at once (an e-stop's damp while a select_mode waits) are safe.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Iterable
+from typing import Any
+
+from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
+    Request_,
+    RequestHeader_,
+    RequestIdentity_,
+    RequestLease_,
+    RequestPolicy_,
+)
+from unitree_sdk2py.rpc.client import Client
+from unitree_sdk2py.rpc.internal import RPC_API_ID_INTERNAL_API_VERSION
+from unitree_sdk2py.utils.future import FutureResult
+
+from g1_mode_manager.core.port import RobotError
+from g1_mode_manager.protocol.api_ids import (
+    ERR_CLIENT_API_DATA,
+    ERR_CLIENT_API_NOT_MATCH,
+    ERR_CLIENT_API_NOT_REG,
+    ERR_CLIENT_API_TIMEOUT,
+    ERR_CLIENT_SEND,
+    ERR_UNKNOWN,
+    OK,
+)
+
+
+class RpcClient(Client):
+    """One SDK RPC client for one service (creating it costs the SDK's built-in 0.5 s sleep)."""
+
+    def __init__(self, service: str, api_version: str, api_ids: Iterable[int], timeout_s: float) -> None:
+        if not timeout_s > 0:
+            raise ValueError(f"timeout_s must be > 0, got {timeout_s!r}")
+        super().__init__(service, False)
+        self.service = service
+        self.timeout_s = float(timeout_s)
+        self._SetApiVerson(api_version)
+        self._api_ids = frozenset(api_ids)
+        for api_id in self._api_ids:
+            self._RegistApi(api_id, 0)
+        # Used only by the SDK's own no-reply path (its wait for a topic match); never changed later.
+        self.SetTimeout(self.timeout_s)
+        self._stub = self._ClientBase__stub  # the SDK's transport: writer, reader, futures by id
+        self._futures = getattr(self._stub, "_ClientStub__futureQueue", None)
+        self._id_lock = threading.Lock()
+        self._last_id = 0
+
+    def _next_id(self) -> int:
+        """Request ids as the SDK makes them (monotonic ns), but never equal across threads."""
+        with self._id_lock:
+            self._last_id = max(time.monotonic_ns(), self._last_id + 1)
+            return self._last_id
+
+    def _request(self, api_id: int, parameter: str, *, noreply: bool) -> Request_:
+        header = RequestHeader_(RequestIdentity_(self._next_id(), api_id), RequestLease_(0),
+                                RequestPolicy_(0, noreply))  # fmt: skip
+        return Request_(header, parameter, [])
+
+    def _drop_future(self, request_id: int) -> None:
+        if self._futures is not None:
+            self._futures.Get(request_id)  # Get pops; the SDK's Remove never does
+
+    def call(self, name: str, api_id: int, parameter: Any = None, *, timeout_s: float | None = None) -> str:
+        """Send a request and wait for its reply; returns the reply's data string.
+
+        ``parameter`` is JSON-encoded (None sends ``{}``). Raises RobotError with the robot's code,
+        or 3102 (not sent: no server matched in time), 3104 (no reply within the timeout).
+        """
+        if api_id != RPC_API_ID_INTERNAL_API_VERSION and api_id not in self._api_ids:
+            raise RobotError(name, ERR_CLIENT_API_NOT_REG, f"api {api_id} not registered for {self.service!r}")
+        timeout = self.timeout_s if timeout_s is None else float(timeout_s)
+        deadline = time.monotonic() + timeout
+        text = "{}" if parameter is None else json.dumps(parameter)
+        request = self._request(api_id, text, noreply=False)
+        request_id = request.header.identity.id
+        future = self._stub.SendRequest(request, timeout)  # waits for a matched server up to timeout
+        if future is None:
+            raise RobotError(name, ERR_CLIENT_SEND, f"no {self.service!r} server matched within {timeout:.2f} s")
+        result = future.GetResult(max(0.0, deadline - time.monotonic()))
+        if result.code != FutureResult.FUTURE_SUCC:
+            self._drop_future(request_id)
+            if result.code == FutureResult.FUTUTE_ERR_TIMEOUT:
+                raise RobotError(name, ERR_CLIENT_API_TIMEOUT, f"no reply from {self.service!r} in {timeout:.2f} s")
+            raise RobotError(name, ERR_UNKNOWN, result.msg or "")
+        response = result.value
+        if response.header.identity.api_id != api_id:
+            raise RobotError(name, ERR_CLIENT_API_NOT_MATCH, f"reply for api {response.header.identity.api_id}")
+        code = int(response.header.status.code)
+        if code != OK:
+            raise RobotError(name, code, f"{self.service} api {api_id} {text}")
+        return response.data
+
+    def call_no_reply(self, name: str, api_id: int, parameter: Any = None) -> None:
+        """Send a request flagged no-reply (the server runs it and answers nothing).
+
+        Uses the SDK's own no-reply call. Raises RobotError(3102) only if it could not be sent.
+        """
+        text = "{}" if parameter is None else json.dumps(parameter)
+        code = self._CallNoReply(api_id, text)
+        if code != OK:
+            raise RobotError(name, int(code), f"{self.service} api {api_id} {text} (no-reply)")
+
+    def server_api_version(self, *, timeout_s: float | None = None) -> str:
+        """The server's api version (the SDK's internal api 1): a cheap readiness probe."""
+        return self.call("GetServerApiVersion", RPC_API_ID_INTERNAL_API_VERSION, timeout_s=timeout_s)
+
+    def wait_ready(self, budget_s: float, *, attempt_timeout_s: float = 0.5) -> str:
+        """Probe the server until it answers or ``budget_s`` passed (the first call after discovery can
+        be lost while the reply topic is still matching). Returns its version; raises the last RobotError."""
+        deadline = time.monotonic() + budget_s
+        while True:
+            remaining = deadline - time.monotonic()
+            try:
+                return self.server_api_version(timeout_s=max(0.05, min(attempt_timeout_s, remaining)))
+            except RobotError:
+                if deadline - time.monotonic() <= 0:
+                    raise
+
+
+def parse_data(name: str, data: str, key: str = "data") -> Any:
+    """A getter's value from its reply: ``{"data": v}`` as the C++ SDK parses it, or a bare JSON value."""
+    try:
+        value = json.loads(data)
+    except (TypeError, ValueError):
+        raise RobotError(name, ERR_CLIENT_API_DATA, f"reply is not JSON: {data!r}") from None
+    if isinstance(value, dict):
+        if key not in value:
+            raise RobotError(name, ERR_CLIENT_API_DATA, f"reply has no {key!r}: {data!r}")
+        return value[key]
+    return value
+
+
+def parse_number(name: str, data: str, kind: type[int] | type[float]) -> Any:
+    """A numeric getter's value (int or float); bools and non-numbers raise RobotError(3106)."""
+    value = parse_data(name, data)
+    if isinstance(value, str):
+        try:
+            value = json.loads(value)
+        except ValueError:
+            pass
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise RobotError(name, ERR_CLIENT_API_DATA, f"reply is not a number: {data!r}")
+    if kind is int and value != int(value):
+        raise RobotError(name, ERR_CLIENT_API_DATA, f"reply is not an integer: {data!r}")
+    return kind(value)
