@@ -1,0 +1,65 @@
+"""Start the real mode_manager node in a subprocess for end-to-end tests, and a ROS client to drive it."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+import rclpy
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+
+from support.processes import ManagedProcess, python_module
+
+
+def start_mode_manager(sdk_domain: int, *params: str, ready_timeout_s: float = 30.0) -> ManagedProcess:
+    """`python -m g1_mode_manager.node.main` on loopback and the given SDK domain; waits for its ready line."""
+    args = ["--ros-args", "-p", f"dds_domain:={sdk_domain}", "-p", "network_interface:=lo"]
+    for p in params:
+        args += ["-p", p]
+    proc = ManagedProcess(python_module("g1_mode_manager.node.main", *args), name="mode_manager")
+    proc.wait_for_line(lambda line: "ready in UNINITIALIZED" in line, ready_timeout_s)
+    return proc
+
+
+class RosClient:
+    """A node in the test process, spun by its own executor thread."""
+
+    def __init__(self, name: str = "e2e_client") -> None:
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node: Node = rclpy.create_node(name, context=self.context)
+        self._executor = MultiThreadedExecutor(num_threads=2, context=self.context)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
+        self._thread.start()
+
+    def call(self, srv_type, name: str, request, timeout_s: float = 30.0):
+        cli = self.node.create_client(srv_type, name)
+        try:
+            if not cli.wait_for_service(timeout_sec=15.0):
+                raise TimeoutError(f"service {name} not available")
+            future = cli.call_async(request)
+            done = threading.Event()
+            future.add_done_callback(lambda _f: done.set())
+            if not done.wait(timeout_s):
+                raise TimeoutError(f"{name} did not answer within {timeout_s} s")
+            return future.result()
+        finally:
+            self.node.destroy_client(cli)
+
+    def close(self) -> None:
+        self._executor.shutdown()
+        self._thread.join(5.0)
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def wait_until(predicate: Callable[[], bool], timeout_s: float, period_s: float = 0.02) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(period_s)
+    return predicate()
