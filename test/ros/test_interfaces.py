@@ -7,11 +7,10 @@ import time
 
 import pytest
 import rclpy
-from rclpy.executors import MultiThreadedExecutor
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
 from g1_mode_manager_msgs.msg import JointCommand, Mode, SportModeState
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 
 @pytest.fixture
