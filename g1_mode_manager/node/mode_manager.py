@@ -42,7 +42,7 @@ def unitree_port(settings: Settings) -> RobotPort:
     from g1_mode_manager.sdk.robot import UnitreeRobot
 
     return UnitreeRobot(settings.dds_domain, settings.network_interface, rpc_timeout_s=settings.rpc_timeout_s,
-                        select_timeout_s=settings.select_timeout_s)
+                        mode_timeout_s=settings.select_timeout_s)
 
 
 class ModeManagerNode(Node):
