@@ -52,9 +52,9 @@ class Controller(Protocol):
 
 
 def pd(q_des: np.ndarray, dq_des: np.ndarray, tau_ff: np.ndarray, kp: np.ndarray, kd: np.ndarray,
-       q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+       q: np.ndarray, dq: np.ndarray, limit: np.ndarray = EFFORT_LIMIT) -> np.ndarray:
     """The G1 motor driver law: tau + kp (q_des - q) + kd (dq_des - dq), clipped to the effort limits."""
-    return np.clip(tau_ff + kp * (q_des - q) + kd * (dq_des - dq), -EFFORT_LIMIT, EFFORT_LIMIT)
+    return np.clip(tau_ff + kp * (q_des - q) + kd * (dq_des - dq), -limit, limit)
 
 
 class ZeroTorqueController:
@@ -303,7 +303,7 @@ class ArmSdkBlend:
         if self.weight <= 0.0:
             return tau_builtin
         arm = slice(ARM0, ARM0 + N_ARM)
-        user = pd(self.q, self.dq, self.tau, self.kp, self.kd, s.q[arm], s.dq[arm])
+        user = pd(self.q, self.dq, self.tau, self.kp, self.kd, s.q[arm], s.dq[arm], EFFORT_LIMIT[arm])
         out = tau_builtin.copy()
         out[arm] = (1.0 - self.weight) * tau_builtin[arm] + self.weight * user
         return out

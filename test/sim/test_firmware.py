@@ -1,0 +1,182 @@
+"""The simulated G1's built-in rules: the rule table (pure, fast) and SimG1's answers (no long stepping)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from g1_mode_manager.protocol.api_ids import (
+    ERR_INVALID_FSM_ID,
+    ERR_REFUSED_IN_STATE,
+    ERR_SERVER_API_NOT_IMPL,
+    ERR_SERVER_API_PARAMETER,
+    OK,
+)
+from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, VALID_FSM_IDS, WALKING_FSM_IDS, FsmId, FsmMode
+from g1_mode_manager.protocol.motors import NUM_JOINTS
+from g1_sim.firmware import rules
+
+# --- rule table (no physics) ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("requested", [-1, 5, 199, 802, 1000])
+def test_unknown_fsm_ids_are_invalid(requested: int) -> None:
+    assert rules.set_fsm_verdict(FsmId.STAND_UP, requested, dynamic=False) == ERR_INVALID_FSM_ID
+
+
+@pytest.mark.parametrize("current", sorted(VALID_FSM_IDS))
+def test_damp_is_always_allowed_even_while_dynamic(current: int) -> None:
+    assert rules.set_fsm_verdict(current, FsmId.DAMP, dynamic=True) == OK
+    assert rules.set_fsm_verdict(current, FsmId.DAMP, dynamic=False) == OK
+
+
+@pytest.mark.parametrize("requested", sorted(VALID_FSM_IDS - {FsmId.DAMP}))
+def test_everything_but_damp_is_refused_while_dynamic(requested: int) -> None:
+    assert rules.set_fsm_verdict(FsmId.START, requested, dynamic=True) == ERR_REFUSED_IN_STATE
+
+
+def test_stand_up_needs_damp_first() -> None:
+    assert rules.set_fsm_verdict(FsmId.ZERO_TORQUE, FsmId.STAND_UP, dynamic=False) == ERR_REFUSED_IN_STATE
+    assert rules.set_fsm_verdict(FsmId.DAMP, FsmId.STAND_UP, dynamic=False) == OK
+
+
+@pytest.mark.parametrize("walk", sorted(WALKING_FSM_IDS))
+def test_walking_starts_only_from_a_stand(walk: int) -> None:
+    for current in (FsmId.ZERO_TORQUE, FsmId.DAMP, FsmId.SQUAT, FsmId.SIT):
+        assert rules.set_fsm_verdict(current, walk, dynamic=False) == ERR_REFUSED_IN_STATE
+    for current in STANDING_FSM_IDS:
+        assert rules.set_fsm_verdict(current, walk, dynamic=False) == OK
+
+
+def test_zero_torque_is_allowed_from_anywhere_static() -> None:
+    for current in VALID_FSM_IDS:
+        assert rules.set_fsm_verdict(current, FsmId.ZERO_TORQUE, dynamic=False) == OK
+
+
+def test_velocity_only_when_walking() -> None:
+    for fsm in VALID_FSM_IDS:
+        expected = OK if fsm in WALKING_FSM_IDS else ERR_REFUSED_IN_STATE
+        assert rules.set_velocity_verdict(fsm) == expected
+
+
+def test_dynamic_when_walking_with_command_or_moving_fast() -> None:
+    kw = {"speed_mps": 0.0, "yaw_rate": 0.0, "transition_running": False}
+    assert rules.is_dynamic(FsmId.START, moving_command=True, **kw)
+    assert not rules.is_dynamic(FsmId.START, moving_command=False, **kw)
+    assert rules.is_dynamic(FsmId.START, moving_command=False, speed_mps=0.5, yaw_rate=0.0,
+                            transition_running=False)
+    assert not rules.is_dynamic(FsmId.STAND_UP, moving_command=False, speed_mps=0.5, yaw_rate=0.0,
+                                transition_running=False)
+    assert rules.is_dynamic(FsmId.STAND_UP, moving_command=False, **{**kw, "transition_running": True})
+
+
+# --- SimG1 answers -------------------------------------------------------------------------------
+
+@pytest.fixture
+def sim():
+    from g1_sim.firmware import SimG1
+
+    return SimG1()
+
+
+@pytest.mark.sim
+def test_boots_standing_in_lock_stand_with_ai_selected(sim) -> None:
+    assert sim.check_mode() == ("0", "ai")
+    assert sim.sport_active()
+    assert sim.get_fsm_id() == (OK, FsmId.STAND_UP)
+    assert sim.get_fsm_mode() == (OK, FsmMode.STATIC)
+    assert sim.base_pose().position[2] > 0.7
+
+
+@pytest.mark.sim
+def test_sim_answers_invalid_ids_and_velocity_outside_walking(sim) -> None:
+    assert sim.set_fsm_id(802) == ERR_INVALID_FSM_ID
+    assert sim.set_velocity(0.5, 0.0, 0.0, 1.0) == ERR_REFUSED_IN_STATE
+    assert sim.get_fsm_id() == (OK, FsmId.STAND_UP)
+
+
+@pytest.mark.sim
+def test_sim_refuses_switches_while_walking_but_not_damp(sim) -> None:
+    assert sim.set_fsm_id(FsmId.START) == OK
+    assert sim.set_velocity(0.5, 0.0, 0.0, 1.0) == OK
+    assert sim.get_fsm_mode() == (OK, FsmMode.DYNAMIC)
+    assert sim.set_fsm_id(FsmId.STAND_UP) == ERR_REFUSED_IN_STATE
+    assert sim.set_fsm_id(FsmId.ZERO_TORQUE) == ERR_REFUSED_IN_STATE
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    assert sim.get_fsm_id() == (OK, FsmId.DAMP)
+    assert sim.counters["damp_requests"] == 1
+
+
+@pytest.mark.sim
+def test_sim_stand_up_needs_damp(sim) -> None:
+    assert sim.set_fsm_id(FsmId.ZERO_TORQUE) == OK
+    assert sim.set_fsm_id(FsmId.STAND_UP) == ERR_REFUSED_IN_STATE
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    assert sim.set_fsm_id(FsmId.STAND_UP) == OK
+    assert sim.get_fsm_mode() == (OK, FsmMode.DYNAMIC)  # the stand-up motion runs
+    assert sim.set_fsm_id(FsmId.START) == ERR_REFUSED_IN_STATE
+
+
+@pytest.mark.sim
+def test_velocity_lapses_after_its_duration(sim) -> None:
+    assert sim.set_fsm_id(FsmId.START) == OK
+    assert sim.set_velocity(0.3, 0.0, 0.0, 0.1) == OK
+    sim.step(round(0.2 / sim.dt))
+    assert sim._loco.command.tolist() == [0.0, 0.0, 0.0]
+
+
+@pytest.mark.sim
+def test_parameters_are_checked_and_stored(sim) -> None:
+    assert sim.set_speed_mode(7) == ERR_SERVER_API_PARAMETER
+    assert sim.set_speed_mode(1) == OK
+    assert sim.set_balance_mode(3) == ERR_SERVER_API_PARAMETER
+    assert sim.set_balance_mode(1) == OK
+    assert sim.get_balance_mode() == (OK, 1)
+    assert sim.set_stand_height(0.7) == OK
+    assert sim.get_stand_height() == (OK, 0.7)
+    assert sim.set_swing_height(0.1) == OK
+    assert sim.get_swing_height() == (OK, 0.1)
+    assert sim.set_silent(True) == OK
+    assert sim.get_silent() is True
+
+
+@pytest.mark.sim
+def test_release_silences_sport_and_select_comes_back_limp(sim) -> None:
+    assert sim.release_mode() == OK
+    assert sim.check_mode() == ("0", "")
+    assert not sim.sport_active()
+    assert sim.set_fsm_id(FsmId.DAMP) == ERR_SERVER_API_NOT_IMPL  # no damping in debug mode
+    assert sim.get_fsm_id()[0] == ERR_SERVER_API_NOT_IMPL
+    assert sim.set_velocity(0.1, 0.0, 0.0, 1.0) == ERR_SERVER_API_NOT_IMPL
+    assert sim.select_mode("bogus") == ERR_SERVER_API_PARAMETER
+    assert sim.select_mode("ai") == OK
+    assert sim.sport_active()
+    assert sim.get_fsm_id() == (OK, FsmId.ZERO_TORQUE)
+    assert sim.select_mode("ai") == OK  # selecting again changes nothing
+    assert sim.get_fsm_id() == (OK, FsmId.ZERO_TORQUE)
+
+
+@pytest.mark.sim
+def test_streams_are_gated_by_state(sim) -> None:
+    zeros17, zeros29 = np.zeros(17), np.zeros(NUM_JOINTS)
+    sim.apply_lowcmd(zeros29, zeros29, zeros29, zeros29, zeros29, np.ones(NUM_JOINTS))
+    assert sim.counters["lowcmd_ignored"] == 1  # not in debug mode
+    sim.apply_arm_sdk(zeros17, zeros17, zeros17, zeros17, zeros17, 0.5)
+    assert sim.arm_sdk_weight == 0.5  # standing: accepted
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    assert sim.arm_sdk_weight == 0.0  # leaving the stand drops the blend
+    sim.apply_arm_sdk(zeros17, zeros17, zeros17, zeros17, zeros17, 0.5)
+    assert sim.arm_sdk_weight == 0.0
+    assert sim.counters["arm_sdk_ignored"] == 1
+
+
+@pytest.mark.sim
+def test_lowstate_shapes_and_values(sim) -> None:
+    sim.step(250)
+    ls = sim.lowstate()
+    assert ls.q.shape == ls.dq.shape == ls.tau_est.shape == (NUM_JOINTS,)
+    assert ls.mode_machine == 5
+    assert ls.tick == 500
+    assert abs(np.linalg.norm(ls.imu_quaternion) - 1.0) < 1e-6
+    assert 8.0 < ls.imu_accelerometer[2] < 11.5  # standing: specific force ~ +g
+    assert sim.sport_state() == (FsmId.STAND_UP, FsmMode.STATIC)
