@@ -10,6 +10,7 @@ calling thread, so tests can check what reached the robot in which state.
 from __future__ import annotations
 
 import threading
+import time
 from collections import defaultdict, deque
 from dataclasses import dataclass
 
@@ -79,6 +80,8 @@ class FakeRobot:
         self.release_never_works = False
         #: SelectMode answers ok but no service becomes active
         self.select_never_works = False
+        #: real seconds every call takes inside the robot (for races between threads)
+        self.latency_s = 0.0
 
     # --- fault injection ---------------------------------------------------------------------------
     def fail(self, name: str, code: int = api_ids.ERR_CLIENT_API_TIMEOUT, times: int = 1) -> None:
@@ -219,6 +222,8 @@ class FakeRobot:
             except RobotError as exc:
                 call.result = str(exc)
                 raise
+        if self.latency_s:
+            time.sleep(self.latency_s)
         with self._lock:
             fault = self._faults[name].popleft() if self._faults[name] else None
             if fault is None and not self.connected and name != "connect":

@@ -1,0 +1,254 @@
+"""Long random sequences of requests, e-stops and robot faults: the machine's safety invariants hold.
+
+Invariants checked after every step:
+- EMERGENCY is never left; after every e-stop the mode is EMERGENCY;
+- a successful e-stop means the robot acknowledged a Damp sent while its high-level service was
+  active; an e-stop fails only if a fault was injected, and then says "call estop again";
+- the predicates never let a command stream through in a mode that forbids it;
+- a failed or refused non-e-stop request keeps the old mode; a successful one reaches the target
+  (and, with an honest CheckMode, the robot's service matches the mode);
+- every attempt leaves exactly one record, and no transition is left half done.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import threading
+import time
+from collections.abc import Callable
+from functools import partial
+
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, precondition, rule
+
+from fakes.fake_robot import ACTIVE, CALL_NAMES, RELEASED
+from fakes.machine_rig import Rig, make_rig
+from g1_mode_manager.core import modes
+from g1_mode_manager.core.machine import Outcome, Result
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.transitions import TABLE
+from g1_mode_manager.protocol import api_ids
+
+HISTORY = 8
+#: Sequences per run; G1_PROPERTY_EXAMPLES raises it for a soak run.
+EXAMPLES = int(os.environ.get("G1_PROPERTY_EXAMPLES", "3000"))
+
+codes = st.sampled_from(
+    [api_ids.ERR_CLIENT_SEND, api_ids.ERR_CLIENT_API_TIMEOUT, api_ids.ERR_SERVER_API_NOT_IMPL, api_ids.ERR_UNKNOWN]
+)
+
+
+class MachineSequences(RuleBasedStateMachine):
+    rig: Rig
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.attempts = 0
+        self.reached_emergency = False
+        self.check_tampered = False  # CheckMode lied or lagged: its answers no longer prove the truth
+
+    @initialize(service=st.sampled_from([ACTIVE, RELEASED]))
+    def start(self, service: str) -> None:
+        self.rig = make_rig(service, select_timeout_s=1.0, release_timeout_s=1.0, poll_interval_s=0.1, history_size=HISTORY)
+
+    # --- what the operator does ------------------------------------------------------------------
+    @rule(wanted=st.sampled_from(list(Mode)))
+    def request(self, wanted: Mode) -> None:
+        target = wanted
+        before_mode = self.rig.machine.mode
+        before_calls = len(self.rig.robot.calls)
+        faulty = self.rig.robot.has_faults or self.check_tampered
+        outcome = self.rig.machine.request(target)
+        self.attempts += 1
+        if target is Mode.EMERGENCY:
+            self._check_estop(outcome, before_calls, faulty)
+            return
+        if before_mode is Mode.EMERGENCY:
+            assert outcome.refused, outcome
+        if outcome.success:
+            assert (before_mode, target) in TABLE
+            assert outcome.mode is target and self.rig.machine.mode is target
+            if not self.check_tampered:
+                self._check_truth(target)
+        else:
+            assert outcome.mode is before_mode and self.rig.machine.mode is before_mode, outcome
+            assert outcome.message
+
+    @rule()
+    def estop(self) -> None:
+        before_calls = len(self.rig.robot.calls)
+        faulty = self.rig.robot.has_faults or self.check_tampered
+        outcome = self.rig.machine.estop()
+        self.attempts += 1
+        self._check_estop(outcome, before_calls, faulty)
+
+    # --- what the robot does ---------------------------------------------------------------------
+    @rule(name=st.sampled_from(CALL_NAMES), code=codes, times=st.integers(1, 3))
+    def fail_calls(self, name: str, code: int, times: int) -> None:
+        self.rig.robot.fail(name, code, times)
+
+    @rule(name=st.sampled_from(CALL_NAMES), exc=st.sampled_from([RuntimeError, ValueError, KeyError, OSError]))
+    def crash_call(self, name: str, exc: type[Exception]) -> None:
+        self.rig.robot.crash(name, exc("injected"))
+
+    @rule(times=st.integers(1, 3))
+    def lie(self, times: int) -> None:
+        self.check_tampered = True
+        self.rig.robot.lie_check(times)
+
+    @rule(times=st.integers(1, 4))
+    def lag(self, times: int) -> None:
+        self.check_tampered = True
+        self.rig.robot.lag_check(times)
+
+    @rule(attempts=st.integers(1, 20))
+    def slow_release(self, attempts: int) -> None:
+        self.rig.robot.release_attempts = attempts  # > 10 exceeds the 1 s timeout
+
+    @rule(flag=st.booleans())
+    def release_broken(self, flag: bool) -> None:
+        self.rig.robot.release_never_works = flag
+
+    @rule(flag=st.booleans())
+    def select_broken(self, flag: bool) -> None:
+        self.rig.robot.select_never_works = flag
+
+    @rule(service=st.sampled_from([ACTIVE, RELEASED]))
+    def service_changed_elsewhere(self, service: str) -> None:
+        self.rig.robot.set_service(service)
+
+    @precondition(lambda self: self.rig.robot.has_faults)
+    @rule()
+    def faults_cleared(self) -> None:
+        self.rig.robot.clear_faults()
+
+    # --- invariants ----------------------------------------------------------------------------------
+    @invariant()
+    def emergency_is_never_left(self) -> None:
+        mode = self.rig.machine.mode
+        if self.reached_emergency:
+            assert mode is Mode.EMERGENCY
+        self.reached_emergency = mode is Mode.EMERGENCY
+
+    @invariant()
+    def predicates_follow_the_mode(self) -> None:
+        m = self.rig.machine
+        mode = m.mode
+        assert m.allows_cmd_vel() == modes.allows_cmd_vel(mode)
+        assert m.allows_arm_commands() == modes.allows_arm_commands(mode)
+        assert m.allows_loco_commands() == modes.allows_loco_commands(mode)
+        assert m.allows_low_level_commands() == modes.allows_low_level_commands(mode)
+        assert m.is_emergency() == (mode is Mode.EMERGENCY)
+        if mode is not Mode.HIGH_LEVEL:
+            assert not (m.allows_cmd_vel() or m.allows_arm_commands() or m.allows_loco_commands())
+        if mode is not Mode.LOW_LEVEL:
+            assert not m.allows_low_level_commands()
+
+    @invariant()
+    def nothing_half_done_and_everything_recorded(self) -> None:
+        status = self.rig.machine.status()
+        assert not status.transition_in_progress and status.transition_target is None
+        assert len(self.rig.records) == self.attempts
+        assert self.rig.machine.history == tuple(self.rig.records[-HISTORY:])
+        if self.rig.statuses:
+            assert self.rig.statuses[-1] == status
+
+    # --- checks ----------------------------------------------------------------------------------
+    def _check_estop(self, outcome: Outcome, before_calls: int, faulty: bool) -> None:
+        assert outcome.mode is Mode.EMERGENCY and self.rig.machine.mode is Mode.EMERGENCY
+        assert not outcome.refused
+        calls = self.rig.robot.calls[before_calls:]
+        if outcome.success:
+            damps = [c for c in calls if c.name == "damp" and c.ok]
+            assert damps and all(c.service for c in damps), calls
+            assert self.rig.robot.damped
+            assert self.rig.machine.status().damp_confirmed
+        else:
+            assert faulty, f"e-stop failed without any injected fault: {outcome.message}"
+            assert outcome.message.startswith("e-stop incomplete: ")
+            assert "call estop again to retry" in outcome.message
+        # DampNoReply goes first (right after connecting, when the e-stop is the first contact)
+        if calls[0].name == "connect":
+            assert not calls[0].ok or calls[1].name == "damp_no_reply", calls
+        else:
+            assert calls[0].name == "damp_no_reply", calls
+
+    def _check_truth(self, target: Mode) -> None:
+        service = self.rig.robot.service
+        if target is Mode.HIGH_LEVEL:
+            assert service, "HIGH_LEVEL reached but the robot's service is released"
+        elif target is Mode.LOW_LEVEL:
+            assert not service, "LOW_LEVEL reached but the robot's service is still active"
+
+
+MachineSequences.TestCase.settings = settings(
+    max_examples=EXAMPLES,
+    stateful_step_count=25,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+TestMachineSequences = MachineSequences.TestCase
+
+
+# --- races: e-stops fired at random moments into transitions running in another thread ---------------
+RACE_ROUNDS = int(os.environ.get("G1_RACE_ROUNDS", "150"))
+RACE_PAIRS = [pair for pair in TABLE if pair[1] is not Mode.EMERGENCY]
+
+
+def _run_in_thread(fn: Callable[[], Outcome], name: str) -> tuple[threading.Thread, list[Outcome]]:
+    out: list[Outcome] = []
+    thread = threading.Thread(target=lambda: out.append(fn()), name=name, daemon=True)
+    thread.start()
+    return thread, out
+
+
+def test_estop_at_random_moments_preempts_cleanly() -> None:
+    """Every round: a legal transition in one thread, an e-stop after a random delay in another.
+
+    With an honest CheckMode the first e-stop always succeeds. A CheckMode that lags after
+    ReleaseMode can make it damp a released robot (3203): then a repeated e-stop must succeed.
+    """
+    rng = random.Random(20261122)
+    tally: dict[str, int] = {}
+    for round_ in range(RACE_ROUNDS):
+        source, target = rng.choice(RACE_PAIRS)
+        service = rng.choice([ACTIVE, RELEASED])
+        rig = make_rig(service, real_time=True, poll_interval_s=0.0005, release_timeout_s=2.0, select_timeout_s=2.0)
+        rig.bring_to(source)
+        lag = rng.choice([0, 0, 1, 2])
+        rig.robot.release_attempts = rng.randint(1, 4)
+        rig.robot.lag_check(lag)
+        rig.robot.latency_s = rng.choice([0.0, 0.0002, 0.001])
+        context = f"round {round_}: {source.name}->{target.name}, robot {service!r}, lag {lag}"
+
+        transition, transition_out = _run_in_thread(partial(rig.machine.request, target), "tr")
+        time.sleep(rng.uniform(0, 0.004))
+        estop_start = len(rig.robot.calls)
+        estop = rig.machine.estop()
+        transition.join(5)
+
+        assert not transition.is_alive(), context
+        assert estop.mode is Mode.EMERGENCY and rig.machine.mode is Mode.EMERGENCY, context
+        calls = rig.robot.calls
+        late = [c for c in calls[estop_start:] if c.thread == "tr"]
+        assert len(late) <= 1, (context, late)  # at most the one call already under way
+        mine = [c for c in calls[estop_start:] if c.thread != "tr"]
+        assert mine[0].name in ("damp_no_reply", "connect"), (context, mine)
+        record = next(r for r in rig.records if r.target is target)
+        assert record.outcome in (Result.OK, Result.PREEMPTED), (context, record)
+        assert transition_out[0].success == (record.outcome is Result.OK), context
+        tally[record.outcome.value] = tally.get(record.outcome.value, 0) + 1
+        if not estop.success:
+            assert lag, (context, estop)
+            assert "call estop again" in estop.message
+            tally["estop retried"] = tally.get("estop retried", 0) + 1
+            retries = [rig.machine.estop() for _ in range(3)]
+            assert any(o.success for o in retries), (context, retries)
+        assert rig.robot.damped, context
+        assert any(c.name == "damp" and c.ok and c.service for c in rig.robot.calls[estop_start:]), context
+        status = rig.machine.status()
+        assert not status.transition_in_progress and status.damp_confirmed, context
+    print(f"race rounds: {RACE_ROUNDS}, outcomes: {tally}")
+    assert tally.get("preempted", 0) > 0, "no round raced: the test exercised nothing"
