@@ -1,8 +1,8 @@
 """UnitreeRobot: the RobotPort over Unitree SDK2 DDS (no ROS here).
 
-``connect()`` creates every DDS entity once: the SDK sleeps in each constructor (RPC client 0.5 s,
-writer 0.2 s), so connect takes about 1.4 s plus the motion switcher's readiness probe; no call
-after it creates anything. Calls are safe from several threads at once: the e-stop thread's
+``connect()`` creates every DDS entity once: the SDK sleeps 0.5 s in each RPC client's constructor,
+so connect takes about 1.1 s plus the motion switcher's readiness probe; no call after it creates
+anything (the frame writers are ours and do not sleep). Calls are safe from several threads at once: the e-stop thread's
 ``damp`` goes through the loco client while another thread waits in ``select_mode`` on the motion
 switcher client (a separate client with its own, longer timeout), and each call has its own deadline.
 """

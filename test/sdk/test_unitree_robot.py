@@ -22,14 +22,21 @@ from support.scripted_robot import events, lowstate_q, start_scripted_robot, wai
 Peer = Callable[..., ManagedProcess]
 
 
+def show(config: pytest.Config, text: str) -> None:
+    """Print a figure even when pytest captures output (no timing assertions: the machine is shared)."""
+    capture = config.pluginmanager.get_plugin("capturemanager")
+    with capture.global_and_fixture_disabled():
+        print(f"\n{text}")
+
+
 @pytest.fixture(scope="module")
-def robot(sdk_channels: int) -> Iterator[UnitreeRobot]:
+def robot(sdk_channels: int, pytestconfig: pytest.Config) -> Iterator[UnitreeRobot]:
     """One connected UnitreeRobot for the module (connect creates DDS entities once and costs ~1.5 s)."""
     peer = start_scripted_robot({"domain": sdk_channels})
     port = UnitreeRobot(sdk_channels, "lo", rpc_timeout_s=1.0, mode_timeout_s=5.0)
     try:
         port.connect()
-        print(f"\nconnect: {port.connect_time_s:.2f} s (creating entities {port.create_time_s:.2f} s)")
+        show(pytestconfig, f"connect: {port.connect_time_s:.2f} s (creating entities {port.create_time_s:.2f} s)")
     finally:
         peer.stop()
     yield port
@@ -57,8 +64,10 @@ def requests(proc: ManagedProcess, **match: Any) -> list[tuple[int, Any]]:
     return [(e["api_id"], json.loads(e["parameter"])) for e in events(proc, "request", **match) if e["api_id"] != 1]
 
 
-def test_robot_implements_the_port(robot: UnitreeRobot) -> None:
+def test_robot_implements_the_port_and_writes_frames_fast(robot: UnitreeRobot) -> None:
     assert isinstance(robot, RobotPort)
+    assert robot._arm is not None and robot._arm._writer.fast
+    assert robot._lowcmd is not None and robot._lowcmd._writer.fast
 
 
 def test_every_loco_call_arrives_with_its_api_id_and_json(robot: UnitreeRobot, peer: Peer) -> None:
@@ -146,13 +155,14 @@ def test_released_sport_service_and_mode_switching(robot: UnitreeRobot, peer: Pe
     ]  # fmt: skip
 
 
-def test_timeout_raises_3104_within_the_per_call_timeout(robot: UnitreeRobot, peer: Peer) -> None:
+def test_timeout_raises_3104_within_the_per_call_timeout(robot: UnitreeRobot, peer: Peer,
+                                                          pytestconfig: pytest.Config) -> None:
     peer(delays={"7002": 1.5})
     start = time.monotonic()
     with pytest.raises(RobotError) as info:
         robot.loco.get_fsm_mode(timeout_s=0.3)
     elapsed = time.monotonic() - start
-    print(f"\ntimeout of 0.3 s raised after {elapsed:.2f} s")
+    show(pytestconfig, f"timeout of 0.3 s raised after {elapsed:.2f} s")
     assert (info.value.call, info.value.code) == ("GetFsmMode", 3104)
 
 
@@ -164,7 +174,8 @@ def test_damp_no_reply_arrives_flagged_no_reply(robot: UnitreeRobot, peer: Peer)
     assert json.loads(event["parameter"]) == {"data": 1}
 
 
-def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobot, peer: Peer) -> None:
+def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobot, peer: Peer,
+                                                              pytestconfig: pytest.Config) -> None:
     """The e-stop thread's damp must not wait behind a slow SelectMode in another thread."""
     proc = peer(delays={"1002": 3.0})
     outcome: dict[str, Any] = {}
@@ -184,7 +195,7 @@ def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobo
     damp_s = time.monotonic() - start
     select_still_waiting = thread.is_alive()
     thread.join(8.0)
-    print(f"\ndamp during a held SelectMode returned in {damp_s * 1e3:.1f} ms")
+    show(pytestconfig, f"damp during a SelectMode held 3 s by the server returned in {damp_s * 1e3:.1f} ms")
     assert select_still_waiting
     assert outcome["select"] == "ok"
     order = [e["api_id"] for e in events(proc, "request") if e["api_id"] != 1]
@@ -225,6 +236,46 @@ def test_streams_frames_and_state(robot: UnitreeRobot, peer: Peer) -> None:
         assert f["mode"] == [0] * 12 + [1] * 17 + [0] * 6
         assert f["q"][12:29] == pytest.approx([-0.02 * k for k in range(17)], abs=1e-6)
         assert f["kp"][12:29] == pytest.approx([60.0] * 17)
+
+
+def test_concurrent_calls_from_many_threads_all_get_their_own_reply(robot: UnitreeRobot, peer: Peer) -> None:
+    proc = peer()
+    errors: list[BaseException] = []
+
+    def worker(k: int) -> None:
+        try:
+            for j in range(5):
+                robot.set_fsm_id(100 * k + j)
+        except BaseException as error:
+            errors.append(error)
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in range(8)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(10.0)
+    assert not errors
+    got = sorted(p["data"] for api_id, p in requests(proc, service="sport") if api_id == 7101)
+    assert got == sorted(100 * k + j for k in range(8) for j in range(5))
+    ids = [e["id"] for e in events(proc, "request", api_id=7101)]
+    assert len(set(ids)) == len(ids)
+
+
+def test_benchmark_rpc_round_trip_and_frame_cost(robot: UnitreeRobot, peer: Peer, pytestconfig: pytest.Config) -> None:
+    peer()
+    rtts = []
+    for _ in range(200):
+        start = time.perf_counter()
+        robot.get_fsm_id()
+        rtts.append(time.perf_counter() - start)
+    rtts.sort()
+    commands = [MotorCommand(q=0.1, kp=50.0, kd=1.0)] * 17
+    start = time.perf_counter()
+    for _ in range(500):
+        robot.write_arm_sdk(commands, 0.5)
+    frame_us = (time.perf_counter() - start) / 500 * 1e6
+    show(pytestconfig, f"RPC round trip (GetFsmId, 200 calls): median {rtts[100] * 1e3:.2f} ms, "
+         f"p99 {rtts[197] * 1e3:.2f} ms; arm_sdk frame build + CRC + write: {frame_us:.0f} us")  # fmt: skip
 
 
 def test_lowcmd_before_any_lowstate_raises() -> None:
