@@ -135,7 +135,11 @@ class ModeMachine:
 
     # --- mode changes ----------------------------------------------------------------------------
     def request(self, target: Mode) -> Outcome:
-        """Change to ``target`` following the transition table; EMERGENCY delegates to estop()."""
+        """Change to ``target`` following the transition table; EMERGENCY delegates to estop().
+
+        A plain int (a Mode message constant) is accepted; a number that is no mode raises ValueError.
+        """
+        target = Mode.from_value(int(target))
         if target is Mode.EMERGENCY:
             return self.estop()
         start = self._clock()

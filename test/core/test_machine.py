@@ -117,6 +117,14 @@ def test_request_emergency_is_an_estop() -> None:
     assert "Damp acknowledged" in outcome.message
 
 
+def test_request_accepts_message_numbers_and_rejects_unknown_ones() -> None:
+    rig = make_rig()
+    assert rig.machine.request(2).success and rig.machine.mode is HI  # type: ignore[arg-type]
+    assert rig.machine.request(4).success and rig.machine.is_emergency()  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="unknown mode number 9"):
+        rig.machine.request(9)  # type: ignore[arg-type]
+
+
 # --- service handling ---------------------------------------------------------------------------------
 def test_high_level_from_released_robot_selects_and_reports_zero_torque() -> None:
     rig = make_rig(service=RELEASED)
