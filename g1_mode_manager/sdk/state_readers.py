@@ -8,11 +8,15 @@ threads always see one consistent (sample, receive time, count) triple.
 from __future__ import annotations
 
 import logging
+import struct
 import threading
 import time
 from collections.abc import Callable
-from typing import Generic, TypeVar
+from dataclasses import dataclass
+from typing import Any, Final, Generic, TypeVar
 
+from cyclonedds._clayer import ddspy_take as _ddspy_take
+from cyclonedds.core import InstanceState, SampleState, ViewState
 from unitree_sdk2py.core.channel import ChannelSubscriber
 
 from g1_mode_manager.core.port import SportState
@@ -22,6 +26,7 @@ from g1_mode_manager.protocol.motors import NUM_JOINTS
 
 T = TypeVar("T")
 _log = logging.getLogger(__name__)
+_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
 class LatestSample(Generic[T]):
@@ -67,20 +72,108 @@ class LatestSample(Generic[T]):
         self._subscriber.Close()
 
 
-class LowStateReader(LatestSample[LowState_]):
-    """rt/lowstate (500 Hz on the robot): mode_machine for LowCmd_ and the measured joint positions."""
+@dataclass(frozen=True)
+class LowStateSnapshot:
+    """What the node needs of one rt/lowstate, decoded straight from the wire; ``message()`` for the rest."""
 
-    def __init__(self, on_sample: Callable[[LowState_], None] | None = None) -> None:
-        super().__init__(topics.LOWSTATE, LowState_, on_sample)
+    mode_machine: int
+    tick: int
+    q: tuple[float, ...]  # the 29 joint positions in motor order
+    data: bytes  # the serialised sample
+
+    def message(self) -> LowState_:
+        return LowState_.deserialize(self.data)
+
+
+# CDR offsets in a LowState_ sample after the 4-byte encapsulation header (checked against cyclonedds by a
+# test): MotorState_ is aligned by its first member, a uint8, so motor 0 starts right after the IMU's int16.
+_MODE_MACHINE_AT: Final = 4 + 9
+_TICK: Final = struct.Struct("<I")
+_TICK_AT: Final = 4 + 12
+_Q: Final = struct.Struct("<" + "f52x" * (NUM_JOINTS - 1) + "f")  # q of motors 0..28, 56 bytes apart
+_Q_AT: Final = 4 + 72
+_LITTLE_ENDIAN_ENCODINGS: Final = (0x01, 0x07)  # CDR_LE (XCDR1), PLAIN_CDR2_LE: same layout for this type
+
+
+def decode_lowstate(data: bytes) -> LowStateSnapshot:
+    """Decode mode_machine, tick and the 29 joint positions of a serialised LowState_ (~3 us instead of the
+    ~0.4 ms of a full deserialisation, which at 500 Hz would cost a fifth of a core)."""
+    if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= _Q_AT + _Q.size:
+        return LowStateSnapshot(mode_machine=data[_MODE_MACHINE_AT], tick=_TICK.unpack_from(data, _TICK_AT)[0],
+                                q=_Q.unpack_from(data, _Q_AT), data=data)  # fmt: skip
+    msg = LowState_.deserialize(data)
+    return LowStateSnapshot(mode_machine=int(msg.mode_machine), tick=int(msg.tick),
+                            q=tuple(float(m.q) for m in msg.motor_state[:NUM_JOINTS]), data=data)  # fmt: skip
+
+
+class LowStateReader:
+    """rt/lowstate (500 Hz on the robot): mode_machine for LowCmd_ and the measured joint positions.
+
+    Takes raw samples (every one waiting, keeping the last, where the SDK's reader takes one per
+    notification) and decodes only what the node needs.
+    """
+
+    def __init__(self, topic: str = topics.LOWSTATE) -> None:
+        from cyclonedds.core import Listener
+        from cyclonedds.sub import DataReader
+        from cyclonedds.topic import Topic
+        from unitree_sdk2py.core.channel import ChannelFactory
+
+        participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
+        if participant is None:
+            raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
+        self.topic = topic
+        self._lock = threading.Lock()
+        self._snapshot: LowStateSnapshot | None = None
+        self._stamp = 0.0
+        self._count = 0
+        self._errors = 0
+        self._reader = DataReader(participant, Topic(participant, topic, LowState_),
+                                  listener=Listener(on_data_available=self._on_data))  # fmt: skip
+
+    def _on_data(self, reader: Any) -> None:
+        try:
+            taken = _ddspy_take(reader._ref, _ANY_STATE, 32)
+            if isinstance(taken, int):
+                return
+            data = [d for d, info in taken if info.valid_data]
+            if not data:
+                return
+            snapshot = decode_lowstate(data[-1])
+        except Exception:
+            self._errors += 1
+            if self._errors == 1:
+                _log.exception("bad sample on %s", self.topic)
+            return
+        now = time.monotonic()
+        with self._lock:
+            self._snapshot, self._stamp, self._count = snapshot, now, self._count + len(data)
+
+    def latest(self) -> tuple[LowStateSnapshot | None, float, int]:
+        """(snapshot or None, its monotonic receive time, samples received so far)."""
+        with self._lock:
+            return self._snapshot, self._stamp, self._count
+
+    @property
+    def count(self) -> int:
+        with self._lock:
+            return self._count
+
+    def age_s(self) -> float | None:
+        snapshot, stamp, _ = self.latest()
+        return None if snapshot is None else time.monotonic() - stamp
 
     @property
     def mode_machine(self) -> int | None:
-        sample, _, _ = self.latest()
-        return None if sample is None else int(sample.mode_machine)
+        snapshot, _, _ = self.latest()
+        return None if snapshot is None else snapshot.mode_machine
 
     def joint_positions(self) -> tuple[float, ...] | None:
-        sample, _, _ = self.latest()
-        return None if sample is None else tuple(m.q for m in sample.motor_state[:NUM_JOINTS])
+        snapshot, _, _ = self.latest()
+        return None if snapshot is None else snapshot.q
+
+    def close(self) -> None:
+        self._reader = None
 
 
 class SportStateReader(LatestSample[SportModeState_]):
