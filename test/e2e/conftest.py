@@ -1,0 +1,91 @@
+"""End-to-end fixtures: the real sim bridge and the real mode_manager node, each in a subprocess."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import pytest
+from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from geometry_msgs.msg import Twist
+
+from support.mode_manager import RosClient, start_mode_manager
+from support.processes import ManagedProcess
+from support.sim_bridge import SimStatus, start_sim_bridge
+
+
+@dataclass
+class Stack:
+    """The simulated G1, the node under test, a ROS client and the sim's status service."""
+
+    bridge: ManagedProcess
+    node: ManagedProcess
+    ros: RosClient
+    sim: SimStatus
+
+    def set_mode(self, name: str, timeout_s: float = 30.0) -> SetMode.Response:
+        return self.ros.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode_name=name), timeout_s)
+
+    def loco(self, command: str, value: int = 0) -> LocoCommand.Response:
+        return self.ros.call(LocoCommand, "/g1_mode_manager/loco_command",
+                             LocoCommand.Request(command=command, value=value))
+
+    def estop(self, timeout_s: float = 30.0):
+        from std_srvs.srv import Trigger
+
+        return self.ros.call(Trigger, "/g1_mode_manager/estop", Trigger.Request(), timeout_s)
+
+    def position(self) -> tuple[float, float, float]:
+        return tuple(self.sim.get()["base"]["position"])
+
+    def requests(self, service: str, api_id: int) -> int:
+        return int(self.sim.get()["requests"].get(service, {}).get(str(api_id), 0))
+
+    def drive(self, vx: float, seconds: float, *, vy: float = 0.0, wz: float = 0.0, rate_hz: float = 20.0) -> None:
+        pub = self.cmd_vel_publisher()
+        msg = Twist()
+        msg.linear.x, msg.linear.y, msg.angular.z = vx, vy, wz
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            pub.publish(msg)
+            time.sleep(1.0 / rate_hz)
+
+    def cmd_vel_publisher(self):
+        if not hasattr(self, "_cmd_vel"):
+            self._cmd_vel = self.ros.node.create_publisher(Twist, "/cmd_vel", 10)
+            deadline = time.monotonic() + 10.0
+            while self._cmd_vel.get_subscription_count() == 0 and time.monotonic() < deadline:
+                time.sleep(0.05)
+        return self._cmd_vel
+
+    def horizontal_speed(self) -> float:
+        v = self.sim.get()["base"]["linear_velocity"]
+        return math.hypot(v[0], v[1])
+
+
+@pytest.fixture
+def stack_factory(sdk_channels: int) -> Iterator:
+    """factory(faults=None) -> Stack; everything it started is stopped after the test."""
+    started: list[ManagedProcess] = []
+    clients: list[RosClient] = []
+
+    def factory(faults: dict | None = None) -> Stack:
+        bridge = start_sim_bridge(sdk_channels, speed=1.0, faults=faults)
+        started.append(bridge)
+        node = start_mode_manager(sdk_channels)
+        started.append(node)
+        ros = RosClient()
+        clients.append(ros)
+        sim = SimStatus()
+        sim.wait_ready(15.0)
+        return Stack(bridge, node, ros, sim)
+
+    yield factory
+    for ros in clients:
+        ros.close()
+    for proc in reversed(started):
+        code = proc.stop()
+        if code not in (0, None):
+            print(f"{proc.name} exited with {code}; output:\n{proc.output()[-4000:]}")

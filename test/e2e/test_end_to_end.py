@@ -1,0 +1,146 @@
+"""The real mode_manager node against the real sim bridge over real DDS (loopback, unique domains)."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+from g1_mode_manager_msgs.msg import JointCommand, Mode
+from geometry_msgs.msg import Twist
+from sensor_msgs.msg import JointState
+
+from g1_mode_manager.node.mode_manager import MODE_QOS
+from g1_mode_manager.protocol import api_ids
+from support.mode_manager import wait_until
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+SPORT, SWITCHER = api_ids.LOCO_SERVICE, api_ids.MOTION_SWITCHER_SERVICE
+
+
+def _start_walking(stack) -> None:
+    r = stack.set_mode("high_level")
+    assert r.success, r.message
+    r = stack.loco("start")
+    assert r.success, r.message
+    assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 500, 5.0)
+
+
+def test_walks_on_cmd_vel_and_watchdog_stops_it(stack_factory) -> None:
+    stack = stack_factory()
+    _start_walking(stack)
+    time.sleep(1.0)
+    x0, y0, _ = stack.position()
+    stack.drive(0.5, 4.0)
+    last_cmd = time.monotonic()
+    x1, y1, z1 = stack.position()
+    walked = math.hypot(x1 - x0, y1 - y0)
+    stopped = wait_until(lambda: stack.horizontal_speed() < 0.1, 3.0, period_s=0.01)
+    stop_after = time.monotonic() - last_cmd
+    print(f"cmd_vel 0.5 m/s for 4 s: walked {walked:.2f} m; stopped {stop_after:.2f} s after the last cmd_vel")
+    assert walked >= 1.2 and z1 > 0.6
+    assert stopped and stop_after <= 1.5
+    assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) > 50
+
+
+def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(stack_factory) -> None:
+    stack = stack_factory()
+    assert stack.set_mode("idle").success
+    moves = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
+    x0, y0, _ = stack.position()
+    stack.drive(0.5, 2.0)
+    x1, y1, _ = stack.position()
+    assert math.hypot(x1 - x0, y1 - y0) < 0.05
+    assert stack.set_mode("low_level").success
+    stack.drive(0.5, 2.0)
+    assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) == moves
+
+
+def test_estop_from_low_level_reselects_the_service_then_damps(stack_factory) -> None:
+    stack = stack_factory()
+    r = stack.set_mode("low_level")
+    assert r.success, r.message
+    status = stack.sim.get()["sport"]
+    assert not status["active"] and status["mode"] == ""
+    selects = stack.requests(SWITCHER, api_ids.MS_SELECT_MODE)
+    r = stack.estop()
+    assert r.success, r.message
+    status = stack.sim.get()["sport"]
+    assert status["active"] and status["fsm_id"] == 1  # damped: only possible after the re-select
+    assert stack.requests(SWITCHER, api_ids.MS_SELECT_MODE) == selects + 1
+
+
+def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(stack_factory) -> None:
+    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}})
+    assert stack.set_mode("low_level").success
+    selects = stack.requests(SWITCHER, api_ids.MS_SELECT_MODE)
+    with ThreadPoolExecutor(1) as pool:
+        pending = pool.submit(stack.set_mode, "high_level")
+        assert wait_until(lambda: stack.requests(SWITCHER, api_ids.MS_SELECT_MODE) > selects, 5.0, period_s=0.005)
+        damps = stack.requests(SPORT, api_ids.LOCO_SET_FSM_ID)
+        estop_result: list = []
+        t0 = time.monotonic()
+        threading.Thread(target=lambda: estop_result.append(stack.estop()), daemon=True).start()
+        reached = wait_until(lambda: stack.requests(SPORT, api_ids.LOCO_SET_FSM_ID) > damps, 2.0, period_s=0.002)
+        latency = time.monotonic() - t0
+        mode_reply = pending.result(30.0)
+    assert wait_until(lambda: bool(estop_result), 30.0)
+    print(f"e-stop during a 5 s SelectMode: Damp counted by the sim {latency * 1000:.1f} ms after the request "
+          f"(includes status polling); e-stop finished: {estop_result[0].message}")
+    assert reached and latency < 0.1
+    assert mode_reply.mode == Mode.EMERGENCY
+    assert estop_result[0].success, estop_result[0].message
+    assert stack.sim.get()["sport"]["fsm_id"] == 1
+
+
+def test_emergency_is_final_and_a_late_subscriber_sees_it(stack_factory) -> None:
+    stack = stack_factory()
+    assert stack.set_mode("high_level").success
+    assert stack.estop().success
+    for name in ("idle", "high_level", "low_level"):
+        r = stack.set_mode(name)
+        assert not r.success and r.mode == Mode.EMERGENCY and "EMERGENCY" in r.message
+    got: list[Mode] = []
+    stack.ros.node.create_subscription(Mode, "/g1_mode_manager/mode", got.append, MODE_QOS)
+    assert wait_until(lambda: bool(got), 10.0)
+    assert got[0].name == "EMERGENCY" and got[0].damp_confirmed
+
+
+def test_bad_input_gets_errors_node_stays_up_and_nothing_moves(stack_factory) -> None:
+    stack = stack_factory()
+    _start_walking(stack)
+    x0, y0, _ = stack.position()
+    pub = stack.cmd_vel_publisher()
+    for bad in (math.nan, math.inf, -math.inf):
+        msg = Twist()
+        msg.linear.x, msg.angular.z = bad, bad
+        for _ in range(20):
+            pub.publish(msg)
+            time.sleep(0.05)
+    x1, y1, _ = stack.position()
+    assert math.hypot(x1 - x0, y1 - y0) < 0.15  # non-finite commands became zero
+    for name in ("warp", "UNINITIALIZED", "", "high level please"):
+        r = stack.set_mode(name)
+        assert not r.success and r.message
+    from g1_mode_manager_msgs.srv import SetMode
+
+    r = stack.ros.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode=99))
+    assert not r.success and "unknown mode number 99" in r.message
+    arm = stack.ros.node.create_publisher(JointState, "/g1_mode_manager/arm_cmd", 10)
+    low = stack.ros.node.create_publisher(JointCommand, "/g1_mode_manager/lowcmd", 10)
+    assert wait_until(lambda: arm.get_subscription_count() > 0 and low.get_subscription_count() > 0, 10.0)
+    arm.publish(JointState(name=["left_knee_joint"], position=[1.0]))
+    arm.publish(JointState(name=["left_elbow_joint"], position=[1.0, 2.0]))
+    low.publish(JointCommand(name=["left_knee_joint"], q=[1.0], kp=[100.0], kd=[1.0, 2.0]))
+    assert wait_until(lambda: "arm_cmd rejected" in stack.node.output() and "lowcmd dropped" in stack.node.output(), 5.0)
+    frames = stack.sim.get()["frames"]
+    assert sum(frames["arm_sdk"].values()) == 0 and sum(frames["lowcmd"].values()) == 0  # nothing reached the robot
+    with ThreadPoolExecutor(8) as pool:
+        results = list(pool.map(stack.set_mode, ["bogus", "idle", "high_level", "low_level", "x"] * 8))
+    assert all(r.message for r in results)
+    assert stack.node.alive()
+    r = stack.set_mode("idle")
+    assert r.message and stack.node.alive()
