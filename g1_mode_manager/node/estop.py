@@ -23,8 +23,9 @@ from g1_mode_manager.core.records import Outcome
 class EstopEndpoint:
     """Serves `<main node>/estop` (std_srvs/Trigger) and listens to `/estop` (std_msgs/Bool, true = stop)."""
 
-    def __init__(self, main: Node, estop: Callable[[], Outcome]) -> None:
+    def __init__(self, main: Node, estop: Callable[[], Outcome], retries: int = 2) -> None:
         self._estop = estop
+        self._retries = retries
         self._log = main.get_logger()
         self.node = rclpy.create_node(
             main.get_name() + "_estop",
@@ -57,6 +58,13 @@ class EstopEndpoint:
     def _run(self, source: str) -> Outcome:
         self._log.warn(f"E-STOP requested via {source}")
         outcome = self._estop()
+        for attempt in range(self._retries):
+            # A repeated e-stop retries the whole sequence (e.g. a CheckMode that lagged behind a
+            # ReleaseMode made the first Damp go to a released service); do it for the caller.
+            if outcome.success:
+                break
+            self._log.error(f"E-STOP attempt {attempt + 1} incomplete ({outcome.message}); retrying")
+            outcome = self._estop()
         if outcome.success:
             self._log.warn(f"E-STOP done in {outcome.duration_s * 1000:.0f} ms: {outcome.message}")
         else:

@@ -96,7 +96,7 @@ class ModeManagerNode(Node):
         ]
         for worker in self._workers:
             worker.start()
-        self._estop = EstopEndpoint(self, self.machine.estop)
+        self._estop = EstopEndpoint(self, self.machine.estop, retries=s.estop_retries)
         self._estop.start()
         self._publish_mode()
         self.get_logger().info(

@@ -34,6 +34,7 @@ class Settings:
     link_timeout_s: float = 0.5
     mode_publish_rate_hz: float = 1.0
     diagnostics_rate_hz: float = 1.0
+    estop_retries: int = 2
 
 
 _DESCRIPTIONS: dict[str, str] = {
@@ -62,6 +63,7 @@ _DESCRIPTIONS: dict[str, str] = {
     "link_timeout_s": "rt/lowstate (and in HIGH_LEVEL rt/sportmodestate) older than this = link lost, s.",
     "mode_publish_rate_hz": "Rate at which ~/mode is re-published besides every change, Hz.",
     "diagnostics_rate_hz": "Rate of /diagnostics, Hz.",
+    "estop_retries": "How often one e-stop request repeats a sequence that did not end with an acknowledged Damp.",
 }
 
 
@@ -69,8 +71,10 @@ def _descriptor(name: str, default: object) -> ParameterDescriptor:
     desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=True)
     if isinstance(default, float):
         desc.floating_point_range = [FloatingPointRange(from_value=1e-3, to_value=1e6)]
-    elif isinstance(default, int) and name == "dds_domain":
+    elif name == "dds_domain":
         desc.integer_range = [IntegerRange(from_value=0, to_value=230, step=1)]
+    elif isinstance(default, int):
+        desc.integer_range = [IntegerRange(from_value=0, to_value=10, step=1)]
     return desc
 
 

@@ -180,3 +180,20 @@ def test_loco_commands_refused_outside_high_level_and_while_dynamic(harness) -> 
     r = loco("sit")
     assert not r.success and "dynamic" in r.message
     assert loco("damp").success
+
+
+def test_estop_service_retries_a_failed_damp_by_itself(harness) -> None:
+    assert harness.set_mode("high_level").success
+    harness.port.fail("damp", times=2)  # the first two Damps time out
+    r = harness.call(Trigger, "/g1_mode_manager/estop", Trigger.Request())
+    assert r.success, r.message
+    assert [c.ok for c in harness.port.calls if c.name == "damp"][-1]
+    assert sum(1 for c in harness.port.calls if c.name == "damp") >= 3
+
+
+def test_estop_reports_failure_when_damp_keeps_failing(harness) -> None:
+    assert harness.set_mode("high_level").success
+    harness.port.fail("damp", times=100)
+    r = harness.call(Trigger, "/g1_mode_manager/estop", Trigger.Request())
+    assert not r.success and "e-stop incomplete" in r.message and "call estop again" in r.message
+    assert harness.node.machine.mode.name == "EMERGENCY"
