@@ -180,3 +180,34 @@ def test_lowstate_shapes_and_values(sim) -> None:
     assert abs(np.linalg.norm(ls.imu_quaternion) - 1.0) < 1e-6
     assert 8.0 < ls.imu_accelerometer[2] < 11.5  # standing: specific force ~ +g
     assert sim.sport_state() == (FsmId.STAND_UP, FsmMode.STATIC)
+
+
+def test_missing_assets_name_make_setup(tmp_path) -> None:
+    from g1_sim.assets import AssetsMissingError, assets_dir
+
+    with pytest.raises(AssetsMissingError, match="make setup"):
+        assets_dir(tmp_path)
+
+
+@pytest.mark.sim
+def test_rpc_threads_and_the_loop_share_the_robot_safely(sim) -> None:
+    import threading
+
+    codes: list[int] = []
+    stop = threading.Event()
+
+    def rpc_client() -> None:
+        while not stop.is_set():
+            codes.append(sim.get_fsm_id()[0])
+            codes.append(sim.set_fsm_id(FsmId.STAND_UP))
+            sim.lowstate()
+
+    client = threading.Thread(target=rpc_client)
+    client.start()
+    try:
+        sim.step(500)
+    finally:
+        stop.set()
+        client.join(timeout=5)
+    assert codes and set(codes) == {OK}
+    assert sim.base_pose().position[2] > 0.7
