@@ -35,6 +35,10 @@ class StandIn:
     def sport_state(self) -> tuple[int, int]:
         return (self.fsm_id, 0)
 
+    @property
+    def standing_balanced(self) -> bool:
+        return self.fsm_id in (4, 500)
+
     def set_fsm_id(self, i: int) -> int:
         self.calls.append(("set_fsm_id", i))
         return api.OK

@@ -51,6 +51,8 @@ _MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
 class CommandRobot(Protocol):
     def sport_active(self) -> bool: ...
     def sport_state(self) -> tuple[int, int]: ...
+    @property
+    def standing_balanced(self) -> bool: ...
     def apply_arm_sdk(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, weight: float) -> None: ...
     def apply_lowcmd(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, enabled: Any) -> None: ...
 
@@ -107,9 +109,10 @@ class CommandIntake:
         if not (math.isfinite(weight) and np.isfinite(m[1:]).all()):
             return self._ignore(ARM_SDK, NON_FINITE)
         fsm_id, _ = self._robot.sport_state()
-        if not self._robot.sport_active() or fsm_id not in STANDING_FSM_IDS:
+        robot = self._robot
+        if not robot.sport_active() or fsm_id not in STANDING_FSM_IDS or not robot.standing_balanced:
             return self._ignore(ARM_SDK, NOT_STANDING)
-        self._robot.apply_arm_sdk(m[1], m[2], m[3], m[4], m[5], min(max(weight, 0.0), 1.0))
+        robot.apply_arm_sdk(m[1], m[2], m[3], m[4], m[5], min(max(weight, 0.0), 1.0))
         extra = () if msg.mode_machine == MODE_MACHINE_G1_29DOF else (MODE_MACHINE_NOT_5,)
         self._count(ARM_SDK, "accepted", *extra)
         return None

@@ -43,11 +43,11 @@ class LowStatePacker:
     Not thread-safe: one packer per publishing thread.
     """
 
-    def __init__(self, use_version_2: bool | None = None, *, mode_machine: int = MODE_MACHINE_G1_29DOF) -> None:
-        raw = _default_lowstate(mode_machine).serialize(use_version_2=use_version_2)
+    def __init__(self, *, mode_machine: int = MODE_MACHINE_G1_29DOF) -> None:
+        # XCDR1: what writers with default QoS ask for (use_version_2 None or False) for this final struct.
+        raw = _default_lowstate(mode_machine).serialize(use_version_2=False)
         if len(raw) != _HEADER + _BODY_SIZE:
             raise RuntimeError(f"unexpected LowState_ CDR size {len(raw)}")
-        self._use_version_2 = use_version_2
         self._buf = np.frombuffer(bytearray(raw), dtype=np.uint8)
         body = _HEADER
         self._tick = _view(self._buf, body + _TICK, "<u4", 1, 4)
@@ -77,8 +77,8 @@ class LowStatePacker:
         return self._msg
 
     def _serialize(self, buffer: object = None, endianness: object = None, use_version_2: bool | None = None) -> bytes:
-        if use_version_2 != self._use_version_2:
-            raise RuntimeError(f"LowStatePacker built for use_version_2={self._use_version_2}, asked {use_version_2}")
+        if use_version_2:
+            raise RuntimeError("LowStatePacker packs XCDR1; the writer asks for XCDR2")
         return self._buf.tobytes()
 
     @property

@@ -1,0 +1,417 @@
+"""The sim bridge seen through the SDK's own clients: sport and motion switcher RPC, topics, faults, speed.
+
+The bridge runs in a subprocess on this run's SDK domain (run pytest under flock /tmp/g1_sim_cpu.lock);
+only clients live here. Distances and durations are in sim time, read from the bridge's status service.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from unitree_sdk2py.comm.motion_switcher.motion_switcher_client import MotionSwitcherClient
+from unitree_sdk2py.core.channel import ChannelFactory, ChannelPublisher, ChannelSubscriber
+from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient
+from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
+
+from g1_mode_manager.protocol import api_ids as api
+from g1_mode_manager.protocol import topics
+from g1_mode_manager.protocol.crc import lowcmd_crc, lowstate_crc
+from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
+from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, ARM_SDK_WEIGHT_INDEX, JOINT_INDEX
+from support.processes import ManagedProcess
+from support.sim_bridge import SimStatus, sim_bridge_factory  # noqa: F401  (fixture)
+
+pytestmark = pytest.mark.sim
+
+SHOULDER = JOINT_INDEX["left_shoulder_pitch_joint"]
+ELBOWS = (JOINT_INDEX["left_elbow_joint"], JOINT_INDEX["right_elbow_joint"])
+
+
+# --- client-side helpers -------------------------------------------------------------------------
+
+
+class LowStateWatch:
+    """Keeps the latest rt/lowstate and checks every frame's CRC and mode_machine."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.latest: LowState_ | None = None
+        self.frames = 0
+        self.bad = 0
+        self._sub = ChannelSubscriber(topics.LOWSTATE, LowState_)
+        self._sub.Init(self._on, 1)
+
+    def _on(self, msg: LowState_) -> None:
+        ok = msg.crc == lowstate_crc(msg) and msg.mode_machine == 5
+        with self._lock:
+            self.latest = msg
+            self.frames += 1
+            self.bad += 0 if ok else 1
+
+    def q(self) -> np.ndarray:
+        with self._lock:
+            assert self.latest is not None, "no rt/lowstate received"
+            return np.array([m.q for m in self.latest.motor_state[:29]])
+
+    def wait_first(self, timeout_s: float = 10.0) -> None:
+        deadline = time.monotonic() + timeout_s
+        while self.frames == 0:
+            assert time.monotonic() < deadline, "no rt/lowstate within 10 s"
+            time.sleep(0.02)
+
+    def close(self) -> None:
+        self._sub.Close()
+
+
+def _call(client: Any, api_id: int, parameter: dict[str, Any] | None = None) -> tuple[int, Any]:
+    code, data = client._Call(api_id, json.dumps(parameter or {}))
+    return code, (json.loads(data) if code == 0 and data else None)
+
+
+def _wait_server(client: Any, version: str, timeout_s: float = 10.0) -> None:
+    """A fresh client is not matched at once (3102): probe the api version until it answers."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        code, got = client.GetServerApiVersion()
+        if code == 0:
+            assert got == version
+            return
+        assert time.monotonic() < deadline, f"server not answering: {code}"
+        time.sleep(0.1)
+
+
+def _poll(status: SimStatus, until: Callable[[dict[str, Any]], bool], sim_timeout_s: float,
+          wall_timeout_s: float = 60.0) -> dict[str, Any]:  # fmt: skip
+    """Poll the status until ``until(status)`` or ``sim_timeout_s`` of sim time passed (then fail)."""
+    start = status.get()["sim_time"]
+    deadline = time.monotonic() + wall_timeout_s
+    while True:
+        s = status.get()
+        if until(s):
+            return s
+        assert s["sim_time"] - start <= sim_timeout_s, f"not within {sim_timeout_s} s of sim time: {s}"
+        assert time.monotonic() < deadline, "sim too slow"
+        time.sleep(0.01)
+
+
+def _lowcmd(q: np.ndarray, *, kp: float, kd: float, mode_machine: int = 5, weight: float | None = None,
+            indices: Any = range(29), crc_ok: bool = True) -> LowCmd_:  # fmt: skip
+    msg = unitree_hg_msg_dds__LowCmd_()
+    msg.mode_machine = mode_machine
+    for i in indices:
+        m = msg.motor_cmd[i]
+        m.mode, m.q, m.dq, m.tau, m.kp, m.kd = 1, float(q[i]), 0.0, 0.0, kp, kd
+    if weight is not None:
+        msg.motor_cmd[ARM_SDK_WEIGHT_INDEX].q = weight
+    msg.crc = lowcmd_crc(msg) ^ (0 if crc_ok else 0xFF)
+    return msg
+
+
+@pytest.fixture
+def lowstate(sdk_channels: int) -> Iterator[LowStateWatch]:
+    watch = LowStateWatch()
+    yield watch
+    watch.close()
+
+
+# --- tests -------------------------------------------------------------------------------------------
+
+
+EXPECTED_MINIMAL_IDS = {
+    LowCmd_: "f16569fc15f0d47aa8600b9e91fbbc",
+    LowState_: "f12f38296b52aa0230b92d378b1e39",
+    SportModeState_: "f128cfd7f01c80e828b3936ef9adcd",
+}
+
+
+def test_bridge_topics_carry_the_robots_type_identifiers(sdk_channels: int, sim_bridge_factory) -> None:  # noqa: F811
+    """The bridge's writers/readers announce the same types as ours, whose minimal ids equal the robot's."""
+    from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
+    from cyclonedds.idl._xt_builder import XTBuilder
+
+    from g1_mode_manager.protocol.dds import minimal_type_id
+
+    for idl_type, expected in EXPECTED_MINIMAL_IDS.items():
+        assert "f1" + minimal_type_id(idl_type) == expected  # 0xf1: EK_MINIMAL, then the 14-byte hash
+    sim_bridge_factory(speed=1.0)
+    participant = ChannelFactory()._ChannelFactory__participant
+    own = participant.guid
+    wanted = {(BuiltinTopicDcpsPublication, topics.LOWSTATE): LowState_,
+              (BuiltinTopicDcpsPublication, topics.SPORTMODESTATE): SportModeState_,
+              (BuiltinTopicDcpsSubscription, topics.LOWCMD): LowCmd_,
+              (BuiltinTopicDcpsSubscription, topics.ARM_SDK): LowCmd_}  # fmt: skip
+    found: dict[tuple[Any, str], bytes] = {}
+    readers = {kind: BuiltinDataReader(participant, kind) for kind in (BuiltinTopicDcpsPublication,
+                                                                        BuiltinTopicDcpsSubscription)}  # fmt: skip
+    deadline = time.monotonic() + 10.0
+    while len(found) < len(wanted) and time.monotonic() < deadline:
+        for kind, reader in readers.items():
+            for ep in reader.read(N=200):
+                if ep.participant_key != own and (kind, ep.topic_name) in wanted and ep.type_id is not None:
+                    found[(kind, ep.topic_name)] = bytes(ep.type_id.value)
+        time.sleep(0.1)
+    assert set(found) == set(wanted), f"bridge endpoints not discovered: {set(wanted) - set(found)}"
+    for key, idl_type in wanted.items():
+        info, _ = XTBuilder.process_type(idl_type)
+        assert found[key] == bytes(info.complete.typeid_with_size.type_id.value), key
+
+
+def test_walk_stop_arm_sdk_damp_release_and_lowcmd(sdk_channels: int, sim_bridge_factory,  # noqa: F811
+                                                   lowstate: LowStateWatch) -> None:  # fmt: skip
+    sim_bridge_factory(speed=2.0)
+    status = SimStatus()
+    status.wait_ready()
+    loco = LocoClient()
+    loco.SetTimeout(3.0)
+    loco.Init()
+    switcher = MotionSwitcherClient()
+    switcher.SetTimeout(3.0)
+    switcher.Init()
+    _wait_server(loco, api.LOCO_API_VERSION)
+    _wait_server(switcher, api.MOTION_SWITCHER_API_VERSION)
+    lowstate.wait_first()
+
+    # Start (the SDK's: fsm 200) and a continuous Move(0.5, 0, 0) for 4 s of sim time.
+    assert switcher.CheckMode() == (0, {"form": "0", "name": "ai"})
+    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 4})
+    loco.Start()
+    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 200})
+    s0 = status.get()
+    loco.Move(0.5, 0.0, 0.0, True)
+    s1 = status.wait_sim_time(s0["sim_time"] + 4.0)
+    walked = float(np.hypot(*(np.array(s1["base"]["position"][:2]) - s0["base"]["position"][:2])))
+    print(f"walked {walked:.2f} m in {s1['sim_time'] - s0['sim_time']:.2f} s of sim time")
+    assert walked >= 1.2
+    assert _call(loco, api.LOCO_GET_FSM_MODE) == (0, {"data": 1})  # dynamic while walking
+
+    # StopMove: stopped within 1.5 s of sim time, i.e. it moves < 5 cm in a 0.5 s window starting by then.
+    loco.StopMove()
+    t_stop = status.get()["sim_time"]
+    history: list[tuple[float, np.ndarray]] = []
+
+    def stopped(s: dict[str, Any]) -> bool:
+        t, p = s["sim_time"], np.array(s["base"]["position"][:2])
+        history.append((t, p))
+        earlier = [(t0, p0) for t0, p0 in history if t0 <= t - 0.5]
+        return bool(earlier) and bool(np.hypot(*(p - earlier[-1][1])) < 0.05)
+
+    s2 = _poll(status, stopped, sim_timeout_s=2.0)
+    print(f"stopped {s2['sim_time'] - 0.5 - t_stop:.2f} s after StopMove")
+    assert s2["base"]["position"][2] > 0.6
+
+    # arm_sdk while standing: weight ramped 0 -> 1 over 1 s of wall time, shoulder to its target.
+    arm = ChannelPublisher(topics.ARM_SDK, LowCmd_)
+    arm.Init()
+    q_now = lowstate.q()
+    target = q_now.copy()
+    target[SHOULDER] = -0.9
+    for k in range(101):
+        arm.Write(_lowcmd(target, kp=60.0, kd=1.5, weight=min(1.0, k / 50), indices=ARM_SDK_JOINTS, mode_machine=0))
+        time.sleep(0.02)
+    err = abs(lowstate.q()[SHOULDER] - target[SHOULDER])
+    print(f"shoulder error {err:.3f} rad after the arm_sdk ramp")
+    assert err < 0.15
+    frames = status.get()["frames"]["arm_sdk"]
+    assert frames["accepted"] >= 50 and frames.get("bad_crc", 0) == 0
+
+    # Damp: the pelvis sinks below 0.3 m within 3 s of sim time.
+    assert loco.SetFsmId(1) == 0
+    _poll(status, lambda s: s["base"]["position"][2] < 0.3, sim_timeout_s=3.0)
+
+    # ReleaseMode: the sport service no longer acts (3203), Damp included.
+    assert switcher.ReleaseMode() == (0, None)
+    assert switcher.CheckMode() == (0, {"form": "0", "name": ""})
+    assert loco.SetFsmId(1) == api.ERR_SERVER_API_NOT_IMPL
+    assert _call(loco, api.LOCO_GET_FSM_ID)[0] == api.ERR_SERVER_API_NOT_IMPL
+
+    # rt/lowcmd with mode_machine 5 and a good CRC moves the elbows; bad frames are ignored and counted.
+    low = ChannelPublisher(topics.LOWCMD, LowCmd_)
+    low.Init()
+    q0 = lowstate.q()
+    goal = q0.copy()
+    for i in ELBOWS:
+        goal[i] = q0[i] + (0.4 if q0[i] < 0.5 else -0.4)  # a modest move: the robot lies on the floor
+    for _ in range(60):
+        low.Write(_lowcmd(goal, kp=80.0, kd=2.0))
+        time.sleep(0.01)
+    time.sleep(0.3)
+    q1 = lowstate.q()
+    print(f"elbows {q0[list(ELBOWS)]} -> {q1[list(ELBOWS)]} (goal {goal[list(ELBOWS)]})")
+    assert np.all(np.abs(q1[list(ELBOWS)] - goal[list(ELBOWS)]) < 0.15)
+    away = q1.copy()
+    for i in ELBOWS:
+        away[i] = q1[i] - 0.6
+    for _ in range(30):
+        low.Write(_lowcmd(away, kp=40.0, kd=2.0, crc_ok=False))
+        low.Write(_lowcmd(away, kp=40.0, kd=2.0, mode_machine=4))
+        time.sleep(0.01)
+    time.sleep(0.3)
+    q2 = lowstate.q()
+    assert np.all(np.abs(q2[list(ELBOWS)] - q1[list(ELBOWS)]) < 0.05), "a bad frame acted"
+    frames = status.get()["frames"]["lowcmd"]
+    print(f"lowcmd frames: {frames}")
+    assert frames["bad_crc"] >= 10 and frames["bad_mode_machine"] >= 10 and frames["accepted"] >= 30
+    assert lowstate.bad == 0 and lowstate.frames > 100
+    req = status.get()["requests"]
+    assert req["sport"][str(api.LOCO_SET_FSM_ID)] >= 3 and req["motion_switcher"][str(api.MS_RELEASE_MODE)] == 1
+
+
+def test_faults_delay_error_damp_fails(sdk_channels: int, sim_bridge_factory) -> None:  # noqa: F811
+    sim_bridge_factory(speed=1.0, faults={"delay_s": {"1002": 2.0}, "error": {"7102": 3104}, "damp_fails": 1})
+    status = SimStatus()
+    status.wait_ready()
+    loco = LocoClient()
+    loco.SetTimeout(1.0)
+    loco.Init()
+    switcher = MotionSwitcherClient()
+    switcher.SetTimeout(1.0)
+    switcher.Init()
+    _wait_server(loco, api.LOCO_API_VERSION)
+    _wait_server(switcher, api.MOTION_SWITCHER_API_VERSION)
+
+    assert loco.SetBalanceMode(1) == 3104  # error fault: answered 3104, not handled
+    assert _call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})
+    assert loco.SetFsmId(1) == 3104  # damp_fails 1: the first Damp fails without damping
+    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 4})
+    assert loco.SetFsmId(1) == 0
+    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 1})
+
+    # delay: SelectMode is handled 2 s later; the client times out meanwhile, CheckMode still answers.
+    assert switcher.ReleaseMode() == (0, None)
+    t0 = time.monotonic()
+    assert switcher.SelectMode("ai") == (3104, None)
+    assert switcher.CheckMode() == (0, {"form": "0", "name": ""})
+    while switcher.CheckMode() != (0, {"form": "0", "name": "ai"}):
+        assert time.monotonic() - t0 < 5.0, "delayed SelectMode never handled"
+        time.sleep(0.05)
+    assert time.monotonic() - t0 >= 1.9
+    assert status.get()["requests"]["motion_switcher"][str(api.MS_SELECT_MODE)] == 1
+
+
+def test_faults_at_run_time_drop_and_pause_state_ros_topics(sdk_channels: int, sim_bridge_factory,  # noqa: F811
+                                                             lowstate: LowStateWatch) -> None:  # fmt: skip
+    import rclpy
+    from nav_msgs.msg import Odometry
+    from rcl_interfaces.msg import Parameter as ParameterMsg
+    from rcl_interfaces.msg import ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.executors import SingleThreadedExecutor
+    from sensor_msgs.msg import JointState
+
+    sim_bridge_factory(speed=1.0)
+    status = SimStatus()
+    status.wait_ready()
+    loco = LocoClient()
+    loco.SetTimeout(1.0)
+    loco.Init()
+    _wait_server(loco, api.LOCO_API_VERSION)
+    lowstate.wait_first()
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("bridge_test", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    spin = threading.Thread(target=executor.spin, daemon=True)
+    spin.start()
+    try:
+        got: dict[str, Any] = {}
+        node.create_subscription(JointState, "/joint_states", lambda m: got.setdefault("joints", m), 10)
+        node.create_subscription(Odometry, "/odom", lambda m: got.setdefault("odom", m), 10)
+        set_params = node.create_client(SetParameters, "/g1_sim_bridge/set_parameters")
+        assert set_params.wait_for_service(10.0)
+
+        def set_faults(text: str) -> Any:
+            value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=text)
+            future = set_params.call_async(SetParameters.Request(parameters=[ParameterMsg(name="faults", value=value)]))
+            deadline = time.monotonic() + 10.0
+            while not future.done():
+                assert time.monotonic() < deadline
+                time.sleep(0.01)
+            return future.result().results[0]
+
+        # ROS topics
+        deadline = time.monotonic() + 10.0
+        while len(got) < 2:
+            assert time.monotonic() < deadline, f"no /joint_states or /odom: {list(got)}"
+            time.sleep(0.05)
+        assert len(got["joints"].name) == 29 and got["joints"].name[0] == "left_hip_pitch_joint"
+        assert (got["odom"].header.frame_id, got["odom"].child_frame_id) == ("odom", "pelvis")
+        assert got["odom"].pose.pose.position.z > 0.6
+
+        # drop at run time: GetBalanceMode is received (counted) but never answered
+        assert set_faults('{"drop": [7003]}').successful
+        before = status.get()["requests"].get("sport", {}).get(str(api.LOCO_GET_BALANCE_MODE), 0)
+        assert _call(loco, api.LOCO_GET_BALANCE_MODE)[0] == 3104
+        assert status.get()["requests"]["sport"][str(api.LOCO_GET_BALANCE_MODE)] == before + 1
+
+        # invalid JSON: refused with a reason, previous faults kept
+        result = set_faults('{"drop": [7003')
+        assert not result.successful and "JSON" in result.reason
+        assert status.get()["faults"]["drop"] == [7003]
+
+        # pause_state: no rt/lowstate while the sim goes on; back after clearing
+        assert set_faults('{"pause_state": true}').successful
+        time.sleep(0.1)
+        n0, t0 = lowstate.frames, status.get()["sim_time"]
+        time.sleep(0.5)
+        assert lowstate.frames == n0 and status.get()["sim_time"] > t0 + 0.3
+        assert _call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})  # drop was replaced
+        assert set_faults("").successful
+        time.sleep(0.3)
+        assert lowstate.frames > n0 + 50
+    finally:
+        executor.shutdown()
+        spin.join(5.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+#: A rt/lowstate reader in its own process: at full speed (~7 kHz of frames) a Python reader here would
+#: swamp this process's DDS receive thread and delay the status replies.
+_READER = """
+import sys, time
+from g1_mode_manager.protocol.dds import init_channels
+init_channels(int(sys.argv[1]), "lo")
+from unitree_sdk2py.core.channel import ChannelSubscriber
+from g1_mode_manager.protocol.idl import LowState_
+n = [0]
+sub = ChannelSubscriber("rt/lowstate", LowState_)
+sub.Init(lambda m: n.__setitem__(0, n[0] + 1), 1)
+try:
+    while True:
+        time.sleep(0.5)
+        print("frames", n[0], flush=True)
+except KeyboardInterrupt:
+    pass
+"""
+
+
+def test_real_time_factor_with_policy_and_publishing(sdk_channels: int, sim_bridge_factory) -> None:  # noqa: F811
+    """As fast as possible, with a rt/lowstate reader in another process: at least 3x real time."""
+    proc: ManagedProcess = sim_bridge_factory(speed=0.0)
+    reader = ManagedProcess([sys.executable, "-c", _READER, str(sdk_channels)], name="lowstate_reader")
+    try:
+        reader.wait_for_line(lambda line: line.startswith("frames") and int(line.split()[1]) > 0, 20.0)
+        status = SimStatus()
+        status.wait_ready()
+        s0, t0 = status.get(), time.monotonic()
+        time.sleep(5.0)
+        s1, t1 = status.get(), time.monotonic()
+    finally:
+        reader.stop()
+    frames_read = max((int(line.split()[1]) for line in reader.lines if line.startswith("frames")), default=0)
+    rtf = (s1["sim_time"] - s0["sim_time"]) / (t1 - t0)
+    lowstate_hz = (s1["published"]["lowstate"] - s0["published"]["lowstate"]) / (s1["sim_time"] - s0["sim_time"])
+    print(f"real-time factor {rtf:.1f}x (bridge's own window: {s1['real_time_factor']:.1f}x), "
+          f"rt/lowstate {lowstate_hz:.0f} Hz of sim time, the reader process got {frames_read} frames")  # fmt: skip
+    assert proc.alive()
+    assert rtf >= 3.0
+    assert lowstate_hz == pytest.approx(500.0, rel=0.01)

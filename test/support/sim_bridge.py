@@ -1,0 +1,112 @@
+"""Start the sim bridge (``python -m g1_sim.bridge.main``) in a subprocess for a test, and read its status.
+
+Other test folders use the fixture factory by importing it into their conftest or module::
+
+    from support.sim_bridge import sim_bridge_factory  # noqa: F401  (pytest fixture)
+
+    def test_x(sdk_channels, sim_bridge_factory):
+        bridge = sim_bridge_factory(speed=2.0, faults={"drop": [7101]})
+
+The caller must hold /tmp/g1_sim_cpu.lock (run pytest under ``flock``): the bridge steps MuJoCo.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+import pytest
+
+from support.processes import ManagedProcess, python_module
+
+READY_LINE = "sim_bridge ready"
+#: Model compilation, policy load, three RPC servers (0.5 s each), writers: ~5-10 s on a busy machine.
+READY_TIMEOUT_S = 60.0
+STATUS_SERVICE = "g1_sim"
+STATUS_API_VERSION = "1.0.0.0"
+STATUS_GET = 9001
+
+
+def start_sim_bridge(sdk_domain: int, *, speed: float = 1.0, faults: dict[str, Any] | None = None,
+                     extra_args: Sequence[str] = (), timeout_s: float = READY_TIMEOUT_S) -> ManagedProcess:  # fmt: skip
+    """Start the bridge on ``sdk_domain`` (loopback) and wait for its ready line.
+
+    Raises TimeoutError / RuntimeError with the bridge's output if it does not come up.
+    """
+    argv = python_module("g1_sim.bridge.main", "--domain", str(sdk_domain), "--interface", "lo",
+                         "--speed", repr(float(speed)), *extra_args)  # fmt: skip
+    if faults is not None:
+        argv += ["--faults", json.dumps(faults)]
+    proc = ManagedProcess(argv, name="sim_bridge")
+    try:
+        proc.wait_for_line(lambda line: line.strip() == READY_LINE, timeout_s)
+    except BaseException:
+        proc.stop()
+        raise
+    return proc
+
+
+@pytest.fixture
+def sim_bridge_factory(sdk_domain: int) -> Iterator[Callable[..., ManagedProcess]]:
+    """``factory(speed=1.0, faults=None, extra_args=())`` starts a bridge; all are stopped after the test.
+
+    One at a time: a second bridge on the same domain would answer the same RPC requests.
+    """
+    started: list[ManagedProcess] = []
+
+    def factory(*, speed: float = 1.0, faults: dict[str, Any] | None = None,
+                extra_args: Sequence[str] = ()) -> ManagedProcess:  # fmt: skip
+        for proc in started:
+            if proc.alive():
+                proc.stop()
+        proc = start_sim_bridge(sdk_domain, speed=speed, faults=faults, extra_args=extra_args)
+        started.append(proc)
+        return proc
+
+    yield factory
+    for proc in started:
+        code = proc.stop()
+        if code not in (0, None):
+            print(f"sim_bridge exited with {code}:\n{proc.output()}")
+
+
+class SimStatus:
+    """Reads the bridge's status service (a sim-only RPC service) with the SDK's plain Client."""
+
+    def __init__(self) -> None:
+        from unitree_sdk2py.rpc.client import Client
+
+        self._client = Client(STATUS_SERVICE, False)
+        self._client._SetApiVerson(STATUS_API_VERSION)
+        self._client._RegistApi(STATUS_GET, 0)
+        self._client.SetTimeout(2.0)
+
+    def get(self) -> dict[str, Any]:
+        code, data = self._client._Call(STATUS_GET, "{}")
+        if code != 0:
+            raise RuntimeError(f"sim status call failed with {code}")
+        return json.loads(data)
+
+    def wait_ready(self, timeout_s: float = 10.0) -> dict[str, Any]:
+        """Retry until the status service answers (a fresh client is not matched at once: 3102)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                return self.get()
+            except RuntimeError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.1)
+
+    def wait_sim_time(self, t: float, timeout_s: float = 60.0) -> dict[str, Any]:
+        """Poll until the bridge's sim time reaches ``t``; returns that status."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            status = self.get()
+            if status["sim_time"] >= t:
+                return status
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"sim time {status['sim_time']:.2f} < {t} after {timeout_s} s")
+            time.sleep(0.02)
