@@ -11,8 +11,9 @@ MSG_SOURCES := $(shell find msg_defs -type f)
 
 setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets
 
-$(STAMPS)/deps: requirements.txt requirements-nodeps.txt constraints.txt
-	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "Python 3.11 is required, found " + sys.version' 
+$(STAMPS)/deps: requirements.txt requirements-nodeps.txt constraints.txt scripts/check_system.sh
+	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "Python 3.11 is required, found " + sys.version'
+	scripts/check_system.sh
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q -r requirements.txt -c constraints.txt
 	$(BIN)/python -m pip install -q --no-deps -r requirements-nodeps.txt
