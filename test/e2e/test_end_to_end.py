@@ -144,3 +144,54 @@ def test_bad_input_gets_errors_node_stays_up_and_nothing_moves(stack_factory) ->
     assert stack.node.alive()
     r = stack.set_mode("idle")
     assert r.message and stack.node.alive()
+
+
+def _joint_reader(stack):
+    latest: dict[str, JointState] = {}
+    stack.ros.node.create_subscription(JointState, "/joint_states", lambda m: latest.__setitem__("m", m), 10)
+
+    def q(name: str) -> float | None:
+        msg = latest.get("m")
+        return None if msg is None else msg.position[list(msg.name).index(name)]
+
+    return q
+
+
+def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(stack_factory) -> None:
+    stack = stack_factory()
+    assert stack.set_mode("high_level").success
+    q = _joint_reader(stack)
+    assert wait_until(lambda: q("left_shoulder_pitch_joint") is not None, 10.0)
+    rest = q("left_shoulder_pitch_joint")
+    target = -1.0
+    arm = stack.ros.node.create_publisher(JointState, "/g1_mode_manager/arm_cmd", 10)
+    assert wait_until(lambda: arm.get_subscription_count() > 0, 10.0)
+    end = time.monotonic() + 4.0  # ramp 2 s, then hold
+    while time.monotonic() < end:
+        arm.publish(JointState(name=["left_shoulder_pitch_joint"], position=[target]))
+        time.sleep(0.05)
+    reached = q("left_shoulder_pitch_joint")
+    assert abs(reached - target) < 0.15, f"shoulder at {reached:.3f}, target {target}"
+    # silence: the weight ramps back to 0 and the controller takes the arm back
+    assert wait_until(lambda: abs(q("left_shoulder_pitch_joint") - rest) < 0.15, 6.0)
+    frames = stack.sim.get()["frames"]["arm_sdk"]
+    print(f"arm_sdk: shoulder {rest:.2f} -> {reached:.2f} rad (target {target}); frames {frames}")
+    assert frames.get("accepted", 0) > 100 and frames.get("bad_crc", 0) == 0
+
+
+def test_lowcmd_moves_a_joint_in_low_level_only(stack_factory) -> None:
+    stack = stack_factory()
+    q = _joint_reader(stack)
+    low = stack.ros.node.create_publisher(JointCommand, "/g1_mode_manager/lowcmd", 10)
+    assert wait_until(lambda: low.get_subscription_count() > 0 and q("left_elbow_joint") is not None, 10.0)
+    assert stack.set_mode("low_level").success
+    time.sleep(1.0)  # limp robot settles on the floor
+    end = time.monotonic() + 2.0
+    while time.monotonic() < end:
+        low.publish(JointCommand(name=["left_elbow_joint"], q=[1.2], dq=[0.0], tau=[0.0], kp=[40.0], kd=[1.0]))
+        time.sleep(0.01)
+    elbow = q("left_elbow_joint")
+    frames = stack.sim.get()["frames"]["lowcmd"]
+    print(f"lowcmd: elbow at {elbow:.2f} rad (target 1.2); frames {frames}")
+    assert abs(elbow - 1.2) < 0.15
+    assert frames.get("accepted", 0) > 50 and frames.get("bad_crc", 0) == 0 and frames.get("bad_mode_machine", 0) == 0
