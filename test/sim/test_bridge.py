@@ -6,11 +6,15 @@ only clients live here. Distances and durations are in sim time, read from the b
 
 from __future__ import annotations
 
+import functools
 import json
+import os
+import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -25,8 +29,8 @@ from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.crc import lowcmd_crc, lowstate_crc
 from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, ARM_SDK_WEIGHT_INDEX, JOINT_INDEX
-from support.processes import ManagedProcess
-from support.sim_bridge import SimStatus, sim_bridge_factory  # noqa: F401  (fixture)
+from support.processes import ManagedProcess, python_module
+from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
 
 pytestmark = pytest.mark.sim
 
@@ -37,37 +41,64 @@ ELBOWS = (JOINT_INDEX["left_elbow_joint"], JOINT_INDEX["right_elbow_joint"])
 # --- client-side helpers -------------------------------------------------------------------------
 
 
-class LowStateWatch:
-    """Keeps the latest rt/lowstate and checks every frame's CRC and mode_machine."""
+class LowStateReader:
+    """rt/lowstate without a listener: Cyclone keeps the newest frame, we decode only what we read.
+
+    (A Python listener at several kHz of frames would swamp this process's DDS receive thread.)
+    """
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self.latest: LowState_ | None = None
-        self.frames = 0
-        self.bad = 0
         self._sub = ChannelSubscriber(topics.LOWSTATE, LowState_)
-        self._sub.Init(self._on, 1)
+        self._sub.Init()
+        self.read = 0
+        self.bad = 0
 
-    def _on(self, msg: LowState_) -> None:
-        ok = msg.crc == lowstate_crc(msg) and msg.mode_machine == 5
-        with self._lock:
-            self.latest = msg
-            self.frames += 1
-            self.bad += 0 if ok else 1
+    def fresh(self, timeout_s: float = 2.0) -> LowState_ | None:
+        """A frame received after this call began (the first take may return an older kept one)."""
+        self._sub.Read(0.05)
+        msg = self._sub.Read(timeout_s)
+        if msg is not None:
+            self.read += 1
+            self.bad += 0 if msg.crc == lowstate_crc(msg) and msg.mode_machine == 5 else 1
+        return msg
 
     def q(self) -> np.ndarray:
-        with self._lock:
-            assert self.latest is not None, "no rt/lowstate received"
-            return np.array([m.q for m in self.latest.motor_state[:29]])
+        msg = self.fresh()
+        assert msg is not None, "no rt/lowstate"
+        return np.array([m.q for m in msg.motor_state[:29]])
 
-    def wait_first(self, timeout_s: float = 10.0) -> None:
-        deadline = time.monotonic() + timeout_s
-        while self.frames == 0:
-            assert time.monotonic() < deadline, "no rt/lowstate within 10 s"
-            time.sleep(0.02)
 
-    def close(self) -> None:
-        self._sub.Close()
+@dataclass
+class Clients:
+    """SDK clients of this process, alive for the whole session (see support/sim_bridge.py: pitfall)."""
+
+    loco: LocoClient
+    switcher: MotionSwitcherClient
+    status: SimStatus
+    arm: ChannelPublisher
+    low: ChannelPublisher
+    lowstate: LowStateReader
+
+
+@functools.cache
+def _session_clients() -> Clients:
+    loco = LocoClient()
+    loco.Init()
+    switcher = MotionSwitcherClient()
+    switcher.Init()
+    arm = ChannelPublisher(topics.ARM_SDK, LowCmd_)
+    arm.Init()
+    low = ChannelPublisher(topics.LOWCMD, LowCmd_)
+    low.Init()
+    return Clients(loco, switcher, shared_sim_status(), arm, low, LowStateReader())
+
+
+@pytest.fixture
+def clients(sdk_channels: int) -> Clients:
+    c = _session_clients()
+    c.loco.SetTimeout(3.0)
+    c.switcher.SetTimeout(3.0)
+    return c
 
 
 def _call(client: Any, api_id: int, parameter: dict[str, Any] | None = None) -> tuple[int, Any]:
@@ -114,13 +145,6 @@ def _lowcmd(q: np.ndarray, *, kp: float, kd: float, mode_machine: int = 5, weigh
     return msg
 
 
-@pytest.fixture
-def lowstate(sdk_channels: int) -> Iterator[LowStateWatch]:
-    watch = LowStateWatch()
-    yield watch
-    watch.close()
-
-
 # --- tests -------------------------------------------------------------------------------------------
 
 
@@ -163,20 +187,12 @@ def test_bridge_topics_carry_the_robots_type_identifiers(sdk_channels: int, sim_
         assert found[key] == bytes(info.complete.typeid_with_size.type_id.value), key
 
 
-def test_walk_stop_arm_sdk_damp_release_and_lowcmd(sdk_channels: int, sim_bridge_factory,  # noqa: F811
-                                                   lowstate: LowStateWatch) -> None:  # fmt: skip
-    sim_bridge_factory(speed=2.0)
-    status = SimStatus()
+def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_factory) -> None:  # noqa: F811
+    proc = sim_bridge_factory(speed=2.0)
+    loco, switcher, status, lowstate = clients.loco, clients.switcher, clients.status, clients.lowstate
     status.wait_ready()
-    loco = LocoClient()
-    loco.SetTimeout(3.0)
-    loco.Init()
-    switcher = MotionSwitcherClient()
-    switcher.SetTimeout(3.0)
-    switcher.Init()
     _wait_server(loco, api.LOCO_API_VERSION)
     _wait_server(switcher, api.MOTION_SWITCHER_API_VERSION)
-    lowstate.wait_first()
 
     # Start (the SDK's: fsm 200) and a continuous Move(0.5, 0, 0) for 4 s of sim time.
     assert switcher.CheckMode() == (0, {"form": "0", "name": "ai"})
@@ -207,13 +223,11 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(sdk_channels: int, sim_bridge
     assert s2["base"]["position"][2] > 0.6
 
     # arm_sdk while standing: weight ramped 0 -> 1 over 1 s of wall time, shoulder to its target.
-    arm = ChannelPublisher(topics.ARM_SDK, LowCmd_)
-    arm.Init()
     q_now = lowstate.q()
     target = q_now.copy()
     target[SHOULDER] = -0.9
     for k in range(101):
-        arm.Write(_lowcmd(target, kp=60.0, kd=1.5, weight=min(1.0, k / 50), indices=ARM_SDK_JOINTS, mode_machine=0))
+        clients.arm.Write(_lowcmd(target, kp=60.0, kd=1.5, weight=min(1.0, k / 50), indices=ARM_SDK_JOINTS, mode_machine=0))
         time.sleep(0.02)
     err = abs(lowstate.q()[SHOULDER] - target[SHOULDER])
     print(f"shoulder error {err:.3f} rad after the arm_sdk ramp")
@@ -232,8 +246,7 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(sdk_channels: int, sim_bridge
     assert _call(loco, api.LOCO_GET_FSM_ID)[0] == api.ERR_SERVER_API_NOT_IMPL
 
     # rt/lowcmd with mode_machine 5 and a good CRC moves the elbows; bad frames are ignored and counted.
-    low = ChannelPublisher(topics.LOWCMD, LowCmd_)
-    low.Init()
+    low = clients.low
     q0 = lowstate.q()
     goal = q0.copy()
     for i in ELBOWS:
@@ -244,7 +257,8 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(sdk_channels: int, sim_bridge
     time.sleep(0.3)
     q1 = lowstate.q()
     print(f"elbows {q0[list(ELBOWS)]} -> {q1[list(ELBOWS)]} (goal {goal[list(ELBOWS)]})")
-    assert np.all(np.abs(q1[list(ELBOWS)] - goal[list(ELBOWS)]) < 0.15)
+    moved = (q1 - q0)[list(ELBOWS)] * np.sign((goal - q0)[list(ELBOWS)])
+    assert np.all(moved > 0.2), "elbows did not follow rt/lowcmd (0.4 rad asked; the floor may stop the last bit)"
     away = q1.copy()
     for i in ELBOWS:
         away[i] = q1[i] - 0.6
@@ -258,21 +272,19 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(sdk_channels: int, sim_bridge
     frames = status.get()["frames"]["lowcmd"]
     print(f"lowcmd frames: {frames}")
     assert frames["bad_crc"] >= 10 and frames["bad_mode_machine"] >= 10 and frames["accepted"] >= 30
-    assert lowstate.bad == 0 and lowstate.frames > 100
+    assert lowstate.bad == 0 and lowstate.read >= 5
     req = status.get()["requests"]
     assert req["sport"][str(api.LOCO_SET_FSM_ID)] >= 3 and req["motion_switcher"][str(api.MS_RELEASE_MODE)] == 1
+    assert proc.stop() == 0 and "Traceback" not in proc.output(), proc.output()  # SIGINT: clean exit
 
 
-def test_faults_delay_error_damp_fails(sdk_channels: int, sim_bridge_factory) -> None:  # noqa: F811
-    sim_bridge_factory(speed=1.0, faults={"delay_s": {"1002": 2.0}, "error": {"7102": 3104}, "damp_fails": 1})
-    status = SimStatus()
-    status.wait_ready()
-    loco = LocoClient()
+def test_faults_delay_error_damp_fails(clients: Clients, sim_bridge_factory) -> None:  # noqa: F811
+    faults = {"delay_s": {"1002": 2.0}, "error": {"7102": 3104}, "damp_fails": 1}
+    proc = sim_bridge_factory(speed=1.0, extra_args=("--ros-args", "-p", f"faults:='{json.dumps(faults)}'"))
+    loco, switcher, status = clients.loco, clients.switcher, clients.status
     loco.SetTimeout(1.0)
-    loco.Init()
-    switcher = MotionSwitcherClient()
     switcher.SetTimeout(1.0)
-    switcher.Init()
+    status.wait_ready()
     _wait_server(loco, api.LOCO_API_VERSION)
     _wait_server(switcher, api.MOTION_SWITCHER_API_VERSION)
 
@@ -293,10 +305,20 @@ def test_faults_delay_error_damp_fails(sdk_channels: int, sim_bridge_factory) ->
         time.sleep(0.05)
     assert time.monotonic() - t0 >= 1.9
     assert status.get()["requests"]["motion_switcher"][str(api.MS_SELECT_MODE)] == 1
+    os.killpg(proc.proc.pid, signal.SIGTERM)
+    assert proc.proc.wait(10.0) == 0 and "Traceback" not in proc.output(), proc.output()
 
 
-def test_faults_at_run_time_drop_and_pause_state_ros_topics(sdk_channels: int, sim_bridge_factory,  # noqa: F811
-                                                             lowstate: LowStateWatch) -> None:  # fmt: skip
+def test_invalid_faults_at_start_exit_with_a_reason(sdk_domain: int) -> None:
+    proc = ManagedProcess(python_module("g1_sim.bridge.main", "--domain", str(sdk_domain), "--faults", '{"drop": 7101}'))
+    try:
+        assert proc.proc.wait(30.0) == 2
+    finally:
+        proc.stop()
+    assert "drop must be a list" in proc.output() and "Traceback" not in proc.output()
+
+
+def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, sim_bridge_factory) -> None:  # noqa: F811
     import rclpy
     from nav_msgs.msg import Odometry
     from rcl_interfaces.msg import Parameter as ParameterMsg
@@ -306,13 +328,11 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(sdk_channels: int, s
     from sensor_msgs.msg import JointState
 
     sim_bridge_factory(speed=1.0)
-    status = SimStatus()
-    status.wait_ready()
-    loco = LocoClient()
+    loco, status, lowstate = clients.loco, clients.status, clients.lowstate
     loco.SetTimeout(1.0)
-    loco.Init()
+    status.wait_ready()
     _wait_server(loco, api.LOCO_API_VERSION)
-    lowstate.wait_first()
+    assert lowstate.fresh() is not None
 
     context = rclpy.Context()
     rclpy.init(context=context)
@@ -359,14 +379,12 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(sdk_channels: int, s
 
         # pause_state: no rt/lowstate while the sim goes on; back after clearing
         assert set_faults('{"pause_state": true}').successful
-        time.sleep(0.1)
-        n0, t0 = lowstate.frames, status.get()["sim_time"]
-        time.sleep(0.5)
-        assert lowstate.frames == n0 and status.get()["sim_time"] > t0 + 0.3
+        n0, t0 = status.get()["published"]["lowstate"], status.get()["sim_time"]
+        assert lowstate.fresh(timeout_s=0.5) is None
+        assert status.get()["published"]["lowstate"] == n0 and status.get()["sim_time"] > t0 + 0.3
         assert _call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})  # drop was replaced
         assert set_faults("").successful
-        time.sleep(0.3)
-        assert lowstate.frames > n0 + 50
+        assert lowstate.fresh() is not None
     finally:
         executor.shutdown()
         spin.join(5.0)
@@ -397,10 +415,10 @@ except KeyboardInterrupt:
 def test_real_time_factor_with_policy_and_publishing(sdk_channels: int, sim_bridge_factory) -> None:  # noqa: F811
     """As fast as possible, with a rt/lowstate reader in another process: at least 3x real time."""
     proc: ManagedProcess = sim_bridge_factory(speed=0.0)
+    status = shared_sim_status()
     reader = ManagedProcess([sys.executable, "-c", _READER, str(sdk_channels)], name="lowstate_reader")
     try:
         reader.wait_for_line(lambda line: line.startswith("frames") and int(line.split()[1]) > 0, 20.0)
-        status = SimStatus()
         status.wait_ready()
         s0, t0 = status.get(), time.monotonic()
         time.sleep(5.0)

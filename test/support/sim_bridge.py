@@ -8,10 +8,16 @@ Other test folders use the fixture factory by importing it into their conftest o
         bridge = sim_bridge_factory(speed=2.0, faults={"drop": [7101]})
 
 The caller must hold /tmp/g1_sim_cpu.lock (run pytest under ``flock``): the bridge steps MuJoCo.
+
+Pitfall: never let an SDK client, publisher or subscriber be garbage-collected while the process
+lives. cyclonedds-python may free an entity's listener before the entity itself; the next bridge's
+readers or writers are then discovered, the matched-status callback jumps into freed memory and the
+test process dies with SIGSEGV. Keep such objects for the whole session (``shared_sim_status()``).
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -110,3 +116,9 @@ class SimStatus:
             if time.monotonic() > deadline:
                 raise TimeoutError(f"sim time {status['sim_time']:.2f} < {t} after {timeout_s} s")
             time.sleep(0.02)
+
+
+@functools.cache
+def shared_sim_status() -> SimStatus:
+    """One SimStatus client per process (see the pitfall above); needs the SDK domain initialised."""
+    return SimStatus()

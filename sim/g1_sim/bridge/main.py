@@ -1,6 +1,9 @@
 """``sim_bridge``: the MuJoCo G1 behind the robot's own Unitree SDK2 DDS interface, plus a ROS 2 node.
 
-    sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--ros-args -p faults:='{...}']
+    sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--ros-args -p "faults:='{...}'"]
+
+ROS parameter values are YAML, so a JSON faults value needs YAML quotes inside the shell's:
+``--ros-args -p "faults:='{\"drop\": [7101]}'"``.
 
 Prints ``sim_bridge ready`` once every service and topic is up. SIGINT/SIGTERM stop it cleanly (exit 0).
 """
@@ -68,7 +71,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rclpy.utilities import remove_ros_args
 
     args_in = list(sys.argv if argv is None else ["sim_bridge", *argv])
-    rclpy.init(args=args_in, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        rclpy.init(args=args_in, signal_handler_options=SignalHandlerOptions.NO)
+    except RuntimeError as e:  # RCLError: malformed --ros-args (e.g. an unquoted JSON value)
+        log.error("bad ROS arguments: %s", e)
+        return EXIT_BAD_CONFIG
     args = parse_cli(remove_ros_args(args_in)[1:])
     node = executor = spin = bridge = None
     code = 0
