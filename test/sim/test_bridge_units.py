@@ -306,3 +306,35 @@ def test_rate_meter() -> None:
         meter.update(3.0 * k)
         wall.now += 1.0
     assert meter.real_time_factor == pytest.approx(3.0) and meter.mean_real_time_factor == pytest.approx(3.0)
+
+
+# --- ROS parameters ------------------------------------------------------------------------------
+
+
+def test_bridge_node_parameters_validate_and_forward() -> None:
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from g1_sim.bridge.ros_face import BridgeNode
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = BridgeNode(overrides={"speed": 3.0, "dds_domain": 7}, context=context)
+        p = node.params()
+        assert (p.network_interface, p.dds_domain, p.speed, p.faults, p.publish_ros) == ("lo", 7, 3.0, "", True)
+        faults = Faults()
+        speeds: list[float] = []
+        node.on_faults = faults.set_json
+        node.on_speed = speeds.append
+        assert node.set_parameters([Parameter("faults", value='{"drop": [7101]}')])[0].successful
+        bad = node.set_parameters([Parameter("faults", value='{"drop": 7101}')])[0]
+        assert not bad.successful and "drop must be a list" in bad.reason
+        assert faults.drops(7101) and node.get_parameter("faults").value == '{"drop": [7101]}'
+        assert not node.set_parameters([Parameter("speed", value=-1.0)])[0].successful
+        assert node.set_parameters([Parameter("speed", value=0.0)])[0].successful and speeds == [0.0]
+        assert not node.set_parameters([Parameter("dds_domain", value=3)])[0].successful  # read-only
+        assert node.set_parameters([Parameter("publish_ros", value=False)])[0].successful and not node.publish_ros
+        node.destroy_node()
+    finally:
+        rclpy.try_shutdown(context=context)

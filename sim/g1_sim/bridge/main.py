@@ -11,6 +11,7 @@ Prints ``sim_bridge ready`` once every service and topic is up. SIGINT/SIGTERM s
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import signal
 import sys
@@ -105,6 +106,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if bridge is not None:
             bridge.shutdown()
+            summary = {k: v for k, v in bridge.status().items() if k in ("sim_time", "requests", "frames", "published")}
+            print(f"sim_bridge final {json.dumps(summary)}", flush=True)
         if executor is not None:
             executor.shutdown()
         if spin is not None:
@@ -189,6 +192,7 @@ class Bridge:
             "requests": self.requests.snapshot(),
             "frames": self.intake.counts(),
             "published": self.publishers.counts(),
+            "firmware": dict(getattr(robot, "counters", {})),
             "faults": self.faults.config.to_json(),
             "damp_fails_left": self.faults.damp_fails_left,
         }

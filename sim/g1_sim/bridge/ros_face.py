@@ -9,6 +9,7 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
@@ -58,8 +59,9 @@ def _time(stamp_ns: int) -> Time:
 class BridgeNode(Node):
     """Parameters are declared up front; run-time changes go through ``on_faults`` / ``on_speed``."""
 
-    def __init__(self, *, overrides: dict[str, object] | None = None) -> None:
-        super().__init__(NODE_NAME, parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()])
+    def __init__(self, *, overrides: dict[str, object] | None = None, context: Context | None = None) -> None:
+        super().__init__(NODE_NAME, context=context,
+                         parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()])  # fmt: skip
         defaults: dict[str, object] = {"network_interface": "lo", "dds_domain": 0, "speed": 1.0, "faults": "",
                                        "publish_ros": True}  # fmt: skip
         for name, default in defaults.items():
