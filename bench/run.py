@@ -29,7 +29,7 @@ SDK_DOMAIN = 200 + os.getpid() % 20
 
 from g1_mode_manager.protocol import api_ids  # noqa: E402
 from support.mode_manager import RosClient, start_mode_manager, wait_until  # noqa: E402
-from support.sim_bridge import SimStatus, start_sim_bridge  # noqa: E402
+from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge  # noqa: E402
 
 SPORT, SWITCHER = api_ids.LOCO_SERVICE, api_ids.MOTION_SWITCHER_SERVICE
 
@@ -49,17 +49,17 @@ class Bench:
         self.sim = sim
         self.ros = ros
 
-    def last_request(self, service: str, api_id: int) -> dict | None:
-        return self.sim.get().get("last_requests", {}).get(service, {}).get(str(api_id))
+    def recent_requests(self, service: str, api_id: int) -> list[dict]:
+        return self.sim.get().get("recent_requests", {}).get(service, {}).get(str(api_id), [])
 
     def wait_request_after(self, service: str, api_id: int, t0: float, timeout_s: float,
                            match: Callable[[dict], bool] = lambda _r: True) -> float | None:
         """Monotonic receive time of the first request of api_id at or after t0, or None."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            last = self.last_request(service, api_id)
-            if last is not None and last["t"] >= t0 and match(last):
-                return last["t"]
+            hits = [r["t"] for r in self.recent_requests(service, api_id) if r["t"] >= t0 and match(r)]
+            if hits:
+                return min(hits)
             time.sleep(0.002)
         return None
 
@@ -68,10 +68,23 @@ class Bench:
 
         return self.ros.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode_name=name))
 
-    def estop(self):
+    def estop_client(self):
+        """A ready ~/estop client, so that the timed call does not include discovery."""
         from std_srvs.srv import Trigger
 
-        return self.ros.call(Trigger, "/g1_mode_manager/estop", Trigger.Request())
+        client = self.ros.node.create_client(Trigger, "/g1_mode_manager/estop")
+        assert client.wait_for_service(timeout_sec=10.0)
+        time.sleep(0.2)  # let the response reader match too
+        return client
+
+    def estop(self, client):
+        from std_srvs.srv import Trigger
+
+        future = client.call_async(Trigger.Request())
+        done = threading.Event()
+        future.add_done_callback(lambda _f: done.set())
+        assert done.wait(30.0), "estop did not answer"
+        return future.result()
 
 
 def estop_latency(bench: Bench, samples: int, slow_select: bool) -> tuple[list[float], list[float]]:
@@ -79,6 +92,8 @@ def estop_latency(bench: Bench, samples: int, slow_select: bool) -> tuple[list[f
     to_robot, to_reply = [], []
     for _ in range(samples):
         node = start_mode_manager(SDK_DOMAIN)
+        wait_until(lambda: bench.ros.service_present("/g1_mode_manager/set_mode"), 10.0)
+        client = None
         try:
             if slow_select:
                 assert bench.set_mode("low_level").success
@@ -88,15 +103,22 @@ def estop_latency(bench: Bench, samples: int, slow_select: bool) -> tuple[list[f
                 assert bench.wait_request_after(SWITCHER, api_ids.MS_SELECT_MODE, selects_before, 5.0)
             else:
                 assert bench.set_mode("high_level").success
+            client = bench.estop_client()
             t0 = time.monotonic()
-            reply = bench.estop()
+            reply = bench.estop(client)
             t_reply = time.monotonic()
             t_damp = bench.wait_request_after(SPORT, api_ids.LOCO_SET_FSM_ID, t0, 5.0)
             assert t_damp is not None and reply.success, reply.message
             to_robot.append(t_damp - t0)
             to_reply.append(t_reply - t0)
+        except BaseException:
+            print(f"mode_manager output:\n{node.output()[-3000:]}", file=sys.stderr)
+            raise
         finally:
             node.stop()
+            bench.ros.wait_service_gone("/g1_mode_manager/set_mode")
+            if client is not None:
+                bench.ros.node.destroy_client(client)
     return to_robot, to_reply
 
 
@@ -126,7 +148,7 @@ def cmd_vel_latency(bench: Bench, samples: int) -> list[float]:
 def raw_move_round_trip(samples: int) -> list[float]:
     from g1_mode_manager.sdk.loco_client import LocoClient
 
-    client = LocoClient(1.0)
+    client = _RAW_CLIENTS.setdefault("loco", LocoClient(1.0))  # SDK clients must never be collected
     client.wait_ready(5.0)
     out = []
     for _ in range(samples):
@@ -134,7 +156,11 @@ def raw_move_round_trip(samples: int) -> list[float]:
         client.set_velocity(0.2, 0.0, 0.0, 1.0)
         out.append(time.monotonic() - t0)
         time.sleep(0.01)
+    client.stop_move()
     return out
+
+
+_RAW_CLIENTS: dict = {}
 
 
 def cpu_percent(pid: int, seconds: float, during: Callable[[], None] | None = None) -> float:
@@ -164,18 +190,18 @@ def main(argv: list[str] | None = None) -> int:
     bridge = start_sim_bridge(SDK_DOMAIN, speed=1.0)
     ros = RosClient("bench")
     try:
-        sim = SimStatus()
+        sim = shared_sim_status()
         sim.wait_ready(15.0)
         bench = Bench(sim, ros)
-        if "last_requests" not in sim.get():
-            print("the sim bridge does not report request times (last_requests): cannot measure", file=sys.stderr)
+        if "recent_requests" not in sim.get():
+            print("the sim bridge does not report request times (recent_requests): cannot measure", file=sys.stderr)
             return 2
         robot, reply = estop_latency(bench, args.samples, slow_select=False)
         rows += [("e-stop: ~/estop call -> Damp received by the robot", summary(robot)),
                  ("e-stop: ~/estop call -> service reply (Damp acknowledged)", summary(reply))]
         bridge.stop()
         bridge = start_sim_bridge(SDK_DOMAIN, speed=1.0, faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
-        sim = SimStatus()
+        sim = shared_sim_status()
         sim.wait_ready(15.0)
         bench = Bench(sim, ros)
         robot, reply = estop_latency(bench, max(3, args.samples // 4), slow_select=True)
@@ -183,16 +209,22 @@ def main(argv: list[str] | None = None) -> int:
                  ("e-stop during a SelectMode held 2 s: -> reply (after re-select)", summary(reply))]
         bridge.stop()
         bridge = start_sim_bridge(SDK_DOMAIN, speed=1.0)
-        sim = SimStatus()
+        sim = shared_sim_status()
         sim.wait_ready(15.0)
         bench = Bench(sim, ros)
         node = start_mode_manager(SDK_DOMAIN)
         try:
             assert bench.set_mode("high_level").success
+            from g1_mode_manager_msgs.srv import LocoCommand
+
+            start = ros.call(LocoCommand, "/g1_mode_manager/loco_command", LocoCommand.Request(command="start"))
+            assert start.success, start.message
             time.sleep(2.0)
             idle_cpu = cpu_percent(node.proc.pid, 10.0)
             rows.append(("node CPU, HIGH_LEVEL, no cmd_vel", f"{idle_cpu:5.1f} % of one core"))
             rows.append(("cmd_vel publish -> Move received (relay at 20 Hz)", summary(cmd_vel_latency(bench, 100))))
+            time.sleep(1.0)  # the node's watchdog stops the robot; the robot stays in walk mode (fsm 500)
+            rows.append(("raw SDK Move (SetVelocity) round trip, same run", summary(raw_move_round_trip(200))))
             from geometry_msgs.msg import Twist
 
             pub = ros.node.create_publisher(Twist, "/cmd_vel", 10)
@@ -208,7 +240,6 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(("node CPU, HIGH_LEVEL, cmd_vel at 100 Hz", f"{busy_cpu:5.1f} % of one core"))
         finally:
             node.stop()
-        rows.append(("raw SDK Move (SetVelocity) round trip, same run", summary(raw_move_round_trip(200))))
     finally:
         ros.close()
         bridge.stop()

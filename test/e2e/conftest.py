@@ -13,7 +13,7 @@ from geometry_msgs.msg import Twist
 
 from support.mode_manager import RosClient, start_mode_manager
 from support.processes import ManagedProcess
-from support.sim_bridge import SimStatus, start_sim_bridge
+from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
 
 
 @dataclass
@@ -78,7 +78,7 @@ def stack_factory(sdk_channels: int) -> Iterator:
         started.append(node)
         ros = RosClient()
         clients.append(ros)
-        sim = SimStatus()
+        sim = shared_sim_status()  # SDK clients must live for the whole process (see support.sim_bridge)
         sim.wait_ready(15.0)
         return Stack(bridge, node, ros, sim)
 

@@ -49,6 +49,14 @@ class RosClient:
         finally:
             self.node.destroy_client(cli)
 
+    def service_present(self, name: str) -> bool:
+        return any(n == name for n, _ in self.node.get_service_names_and_types())
+
+    def wait_service_gone(self, name: str, timeout_s: float = 10.0) -> bool:
+        """After stopping a node: its service must leave the graph before a new node with the same
+        name starts, or a new client may match the dead server and its request is lost."""
+        return wait_until(lambda: not self.service_present(name), timeout_s, period_s=0.05)
+
     def close(self) -> None:
         self._executor.shutdown()
         self._thread.join(5.0)

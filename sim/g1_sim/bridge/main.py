@@ -190,6 +190,7 @@ class Bridge:
                      "linear_velocity": b.linear_velocity.tolist(),
                      "angular_velocity": b.angular_velocity.tolist()},
             "requests": self.requests.snapshot(),
+            "recent_requests": self.requests.recent(),
             "frames": self.intake.counts(),
             "published": self.publishers.counts(),
             "firmware": dict(getattr(robot, "counters", {})),

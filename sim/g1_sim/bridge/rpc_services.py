@@ -21,7 +21,8 @@ from __future__ import annotations
 import json
 import math
 import threading
-from collections import Counter
+import time
+from collections import Counter, deque
 from collections.abc import Callable
 from typing import Any, Protocol
 
@@ -180,19 +181,34 @@ def motion_switcher_handlers(robot: SportRobot) -> dict[int, Handler]:
 
 
 class RequestCounter:
-    """Requests received per service and api id (thread-safe)."""
+    """Requests received per service and api id, and the last one of each (thread-safe).
+
+    Receive times are CLOCK_MONOTONIC, which every process of the machine shares,
+    so a benchmark can compare it with the time it sent the request.
+    """
+
+    RECENT = 16
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._counts: dict[str, Counter[int]] = {}
+        self._recent: dict[str, dict[int, deque[dict[str, Any]]]] = {}
 
-    def add(self, service: str, api_id: int) -> None:
+    def add(self, service: str, api_id: int, parameter: str = "") -> None:
+        now = time.monotonic()
         with self._lock:
             self._counts.setdefault(service, Counter())[api_id] += 1
+            recent = self._recent.setdefault(service, {}).setdefault(api_id, deque(maxlen=self.RECENT))
+            recent.append({"t": now, "parameter": parameter[:200]})
 
     def snapshot(self) -> dict[str, dict[str, int]]:
         with self._lock:
             return {s: {str(k): v for k, v in sorted(c.items())} for s, c in self._counts.items()}
+
+    def recent(self) -> dict[str, dict[str, list[dict[str, Any]]]]:
+        """The last RECENT requests of each api id, oldest first."""
+        with self._lock:
+            return {s: {str(k): [dict(r) for r in v] for k, v in sorted(c.items())} for s, c in self._recent.items()}
 
 
 class SimServer(Server):
@@ -228,7 +244,7 @@ class SimServer(Server):
 
     def _on_request(self, request: Any) -> None:
         api_id = int(request.header.identity.api_id)
-        self._counter.add(self.GetName(), api_id)
+        self._counter.add(self.GetName(), api_id, str(request.parameter))
         if self._faults.drops(api_id):
             return
         delay = self._faults.delay_s(api_id)
