@@ -59,20 +59,45 @@ class Child:
 def _odom_xy(client: ManagerClient):
     from nav_msgs.msg import Odometry
 
-    latest: list[Odometry] = []
-    client.node.create_subscription(Odometry, "/odom", lambda m: (latest[:1].__len__() and latest.pop()) or latest.append(m), 10)
+    latest: dict[str, Odometry] = {}
+
+    def keep(msg: Odometry) -> None:
+        latest["odom"] = msg
+
+    client.node.create_subscription(Odometry, "/odom", keep, 10)
 
     def get() -> tuple[float, float] | None:
-        return (latest[0].pose.pose.position.x, latest[0].pose.pose.position.y) if latest else None
+        msg = latest.get("odom")
+        return None if msg is None else (msg.pose.pose.position.x, msg.pose.pose.position.y)
 
     return get
+
+
+class _ModePrinter:
+    """Prints ~/mode when it changes (it is also re-published at 1 Hz)."""
+
+    def __init__(self) -> None:
+        self._last: tuple | None = None
+
+    def __call__(self, msg) -> None:
+        from g1_mode_manager.core.modes import Mode
+
+        key = (msg.mode, msg.transition_in_progress, msg.transition_target)
+        if key == self._last:
+            return
+        self._last = key
+        target = f" -> {Mode(msg.transition_target).name} (in progress)" if msg.transition_in_progress else ""
+        print(f"  ~/mode: {msg.name}{target}", flush=True)
 
 
 def scripted_tour(client: ManagerClient) -> bool:
     """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, E-STOP. Returns True if all went as expected."""
     odom = _odom_xy(client)
-    client.on_mode(lambda m: print(f"  ~/mode: {m.name}" + (f" -> {m.transition_target}" if m.transition_in_progress else "")))
+    client.on_mode(_ModePrinter())
     steps_ok = True
+    deadline = time.monotonic() + 15.0
+    while odom() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
 
     def step(title: str, ok: bool, detail: str) -> None:
         nonlocal steps_ok

@@ -32,6 +32,9 @@ class ManagerClient:
         self.node = Node(f"{name}_{os.getpid()}", context=self._context)
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self.node)
+        # A waiting executor does not see entities created later until something wakes it: a no-op
+        # timer wakes it every 0.1 s, so subscriptions added after the start are served too.
+        self.node.create_timer(0.1, lambda: None)
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
         self._lock = threading.Lock()
