@@ -92,7 +92,7 @@ def estop_latency(bench: Bench, samples: int, slow_select: bool) -> tuple[list[f
     to_robot, to_reply = [], []
     for _ in range(samples):
         node = start_mode_manager(SDK_DOMAIN)
-        wait_until(lambda: bench.ros.service_present("/g1_mode_manager/set_mode"), 10.0)
+        bench.ros.wait_node_answers()
         client = None
         try:
             if slow_select:
@@ -213,6 +213,7 @@ def main(argv: list[str] | None = None) -> int:
         sim.wait_ready(15.0)
         bench = Bench(sim, ros)
         node = start_mode_manager(SDK_DOMAIN)
+        bench.ros.wait_node_answers()
         try:
             assert bench.set_mode("high_level").success
             from g1_mode_manager_msgs.srv import LocoCommand

@@ -22,6 +22,22 @@ def default_discovery_to_localhost() -> None:
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 
+def call_service(node: Node, srv_type, name: str, request, timeout_s: float, discovery_timeout_s: float = 10.0):
+    """Call a service from a node that another thread spins; TimeoutError if absent or silent."""
+    client = node.create_client(srv_type, name)
+    try:
+        if not client.wait_for_service(timeout_sec=discovery_timeout_s):
+            raise TimeoutError(f"service {name} not available: is the mode manager running?")
+        future = client.call_async(request)
+        done = threading.Event()
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout_s):
+            raise TimeoutError(f"{name} did not answer within {timeout_s} s")
+        return future.result()
+    finally:
+        node.destroy_client(client)
+
+
 class ManagerClient:
     """Calls ~/set_mode, ~/estop, ~/loco_command of a mode manager node and watches ~/mode."""
 
@@ -82,18 +98,7 @@ class ManagerClient:
         return None
 
     def _call(self, srv_type, name: str, request, timeout_s: float):
-        client = self.node.create_client(srv_type, f"{self.manager}/{name}")
-        try:
-            if not client.wait_for_service(timeout_sec=min(timeout_s, 10.0)):
-                raise TimeoutError(f"service {self.manager}/{name} not available: is the mode manager running?")
-            future = client.call_async(request)
-            done = threading.Event()
-            future.add_done_callback(lambda _f: done.set())
-            if not done.wait(timeout_s):
-                raise TimeoutError(f"{self.manager}/{name} did not answer within {timeout_s} s")
-            return future.result()
-        finally:
-            self.node.destroy_client(client)
+        return call_service(self.node, srv_type, f"{self.manager}/{name}", request, timeout_s)
 
     def set_mode(self, mode_name: str, timeout_s: float = 30.0) -> SetMode.Response:
         return self._call(SetMode, "set_mode", SetMode.Request(mode_name=mode_name), timeout_s)

@@ -78,6 +78,7 @@ def stack_factory(sdk_channels: int) -> Iterator:
         started.append(node)
         ros = RosClient()
         clients.append(ros)
+        ros.wait_node_answers()
         sim = shared_sim_status()  # SDK clients must live for the whole process (see support.sim_bridge)
         sim.wait_ready(15.0)
         return Stack(bridge, node, ros, sim)

@@ -10,6 +10,7 @@ import rclpy
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 
+from g1_mode_manager.cli.client import call_service
 from support.processes import ManagedProcess, python_module
 
 
@@ -39,18 +40,23 @@ class RosClient:
         self._thread.start()
 
     def call(self, srv_type, name: str, request, timeout_s: float = 30.0):
-        cli = self.node.create_client(srv_type, name)
-        try:
-            if not cli.wait_for_service(timeout_sec=15.0):
-                raise TimeoutError(f"service {name} not available")
-            future = cli.call_async(request)
-            done = threading.Event()
-            future.add_done_callback(lambda _f: done.set())
-            if not done.wait(timeout_s):
-                raise TimeoutError(f"{name} did not answer within {timeout_s} s")
-            return future.result()
-        finally:
-            self.node.destroy_client(cli)
+        return call_service(self.node, srv_type, name, request, timeout_s, discovery_timeout_s=15.0)
+
+    def wait_node_answers(self, node_name: str = "/g1_mode_manager", timeout_s: float = 20.0) -> None:
+        """Call the node's get_parameters service until it answers: once a request and its response
+        have crossed, discovery between this client and the node is complete in both directions, so
+        the next call is not lost to a half-matched service (seen right after a node restart)."""
+        from rcl_interfaces.srv import GetParameters
+
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                call_service(self.node, GetParameters, f"{node_name}/get_parameters",
+                             GetParameters.Request(names=["dds_domain"]), timeout_s=2.0, discovery_timeout_s=5.0)
+                return
+            except TimeoutError:
+                if time.monotonic() > deadline:
+                    raise
 
     def service_present(self, name: str) -> bool:
         return any(n == name for n, _ in self.node.get_service_names_and_types())
