@@ -10,11 +10,15 @@ from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 
 
+#: LocoCommand code of a command refused here, before anything was sent to the robot.
+NOT_SENT = -1
+
+
 @dataclass(frozen=True)
 class LocoResult:
     success: bool
     message: str
-    code: int = 0
+    code: int = NOT_SENT
 
 
 def _fsm(fsm_id: FsmId) -> Callable[[RobotPort, int], None]:
@@ -77,4 +81,4 @@ def run_loco_command(port: RobotPort, mode: Mode, allows_loco: bool, command: st
         action(port, value)
     except RobotError as exc:
         return LocoResult(False, str(exc), exc.code)
-    return LocoResult(True, f"{name} sent" + (f" (value {value})" if name in _VALUE_RANGES else ""))
+    return LocoResult(True, f"{name} sent" + (f" (value {value})" if name in _VALUE_RANGES else ""), 0)

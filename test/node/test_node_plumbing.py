@@ -197,3 +197,9 @@ def test_estop_reports_failure_when_damp_keeps_failing(harness) -> None:
     r = harness.call(Trigger, "/g1_mode_manager/estop", Trigger.Request())
     assert not r.success and "e-stop incomplete" in r.message and "call estop again" in r.message
     assert harness.node.machine.mode.name == "EMERGENCY"
+
+
+def test_loco_refusals_say_nothing_was_sent(harness) -> None:
+    r = harness.call(LocoCommand, "/g1_mode_manager/loco_command", LocoCommand.Request(command="start"))
+    assert not r.success and r.code == -1
+    assert harness.port.stream("set_fsm_id") == []
