@@ -7,17 +7,16 @@ machine's estop(), which never waits for a transition in flight.
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable
 
-import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
 from g1_mode_manager.core.records import Outcome
+from g1_mode_manager.node.side_node import SideNode
 
 
 class EstopEndpoint:
@@ -27,33 +26,17 @@ class EstopEndpoint:
         self._estop = estop
         self._retries = retries
         self._log = main.get_logger()
-        self.node = rclpy.create_node(
-            main.get_name() + "_estop",
-            namespace=main.get_namespace(),
-            context=main.context,
-            start_parameter_services=False,
-        )
-        self.service_name = main.get_fully_qualified_name() + "/estop"
-        self.node.create_service(Trigger, self.service_name, self._on_trigger)
-        self.node.create_subscription(Bool, "/estop", self._on_topic, QoSProfile(depth=10,
-                                      reliability=ReliabilityPolicy.RELIABLE))
-        self._executor = SingleThreadedExecutor(context=main.context)
-        self._executor.add_node(self.node)
-        self._thread = threading.Thread(target=self._spin, name="estop_executor", daemon=True)
+        self._side = SideNode(main, "estop", SingleThreadedExecutor(context=main.context))
+        self.service_name = self._side.name_under_main("estop")
+        self._side.node.create_service(Trigger, self.service_name, self._on_trigger)
+        self._side.node.create_subscription(Bool, "/estop", self._on_topic,
+                                            QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
 
     def start(self) -> None:
-        self._thread.start()
-
-    def _spin(self) -> None:
-        try:
-            self._executor.spin()
-        except ExternalShutdownException:
-            pass
+        self._side.start()
 
     def shutdown(self) -> None:
-        self._executor.shutdown()
-        self._thread.join(5.0)
-        self.node.destroy_node()
+        self._side.shutdown()
 
     def _run(self, source: str) -> Outcome:
         self._log.warn(f"E-STOP requested via {source}")

@@ -9,7 +9,6 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 
-
 #: LocoCommand code of a command refused here, before anything was sent to the robot.
 NOT_SENT = -1
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 from g1_mode_manager.node.mode_manager import ModeManagerNode
 
@@ -11,7 +11,7 @@ from g1_mode_manager.node.mode_manager import ModeManagerNode
 def main(args: list[str] | None = None) -> None:
     rclpy.init(args=args)
     node = None
-    executor = MultiThreadedExecutor(num_threads=4)
+    executor = SingleThreadedExecutor()  # blocking services run on their own side node
     try:
         node = ModeManagerNode()
         executor.add_node(node)

@@ -10,7 +10,8 @@ from g1_mode_manager_msgs.msg import JointCommand, SportModeState
 from g1_mode_manager_msgs.msg import Mode as ModeMsg
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
 from geometry_msgs.msg import Twist
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -25,6 +26,7 @@ from g1_mode_manager.node.estop import EstopEndpoint
 from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.node.loco_commands import run_loco_command
 from g1_mode_manager.node.settings import Settings, declare_settings
+from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
@@ -46,7 +48,11 @@ def unitree_port(settings: Settings) -> RobotPort:
 
 
 class ModeManagerNode(Node):
-    """Serves ~/set_mode, ~/loco_command, ~/estop; relays /cmd_vel, ~/arm_cmd, ~/lowcmd; publishes state."""
+    """Serves ~/set_mode, ~/loco_command, ~/estop; relays /cmd_vel, ~/arm_cmd, ~/lowcmd; publishes state.
+
+    Three executors: this node's (streams, timers, parameters; single-threaded: cheap at 100 Hz),
+    the services side node's (a thread pool for blocking transitions) and the e-stop side node's.
+    """
 
     def __init__(self, *, port_factory: PortFactory = unitree_port, node_name: str = "g1_mode_manager",
                  **kwargs) -> None:
@@ -69,9 +75,15 @@ class ModeManagerNode(Node):
         self._sport_pub = self.create_publisher(SportModeState, "~/sportmodestate", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
 
-        services = ReentrantCallbackGroup()  # a busy transition refuses others at once instead of queueing them
-        self.create_service(SetMode, "~/set_mode", self._on_set_mode, callback_group=services)
-        self.create_service(LocoCommand, "~/loco_command", self._on_loco_command, callback_group=services)
+        # set_mode may block for seconds (SelectMode on a robot): served on a side node with a thread pool
+        # of its own, so the command streams keep their cheap single-threaded executor, and a busy
+        # transition refuses further requests at once instead of queueing them.
+        self._service_side = SideNode(self, "services", MultiThreadedExecutor(num_threads=4, context=self.context))
+        services = ReentrantCallbackGroup()
+        self._service_side.node.create_service(SetMode, self._service_side.name_under_main("set_mode"), self._on_set_mode,
+                                           callback_group=services)
+        self._service_side.node.create_service(LocoCommand, self._service_side.name_under_main("loco_command"),
+                                           self._on_loco_command, callback_group=services)
 
         limits = VelocityLimits(s.max_vx, s.max_vy, s.max_wz, s.max_ax, s.max_ay, s.max_aw)
         self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=limits,
@@ -80,14 +92,12 @@ class ModeManagerNode(Node):
                              silence_timeout_s=s.arm_cmd_timeout_s, kp=s.arm_kp, kd=s.arm_kd)
         self._lowcmd = LowCmdRelay(self._port, self.machine, self._link, self._events,
                                    silence_timeout_s=s.lowcmd_timeout_s)
-        streams = MutuallyExclusiveCallbackGroup()
-        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10, callback_group=streams)
-        self.create_subscription(JointState, "~/arm_cmd", self._on_arm_cmd, 10, callback_group=streams)
-        self.create_subscription(JointCommand, "~/lowcmd", self._on_lowcmd, 10, callback_group=streams)
+        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10)
+        self.create_subscription(JointState, "~/arm_cmd", self._on_arm_cmd, 10)
+        self.create_subscription(JointCommand, "~/lowcmd", self._on_lowcmd, 10)
 
-        timers = MutuallyExclusiveCallbackGroup()
-        self.create_timer(1.0 / s.mode_publish_rate_hz, self._publish_mode, callback_group=timers)
-        self.create_timer(1.0 / s.diagnostics_rate_hz, self._publish_diagnostics, callback_group=timers)
+        self.create_timer(1.0 / s.mode_publish_rate_hz, self._publish_mode)
+        self.create_timer(1.0 / s.diagnostics_rate_hz, self._publish_diagnostics)
 
         self._workers = [
             PeriodicWorker("cmd_vel_relay", s.cmd_vel_rate_hz, self._cmd_vel.tick, self._worker_error),
@@ -98,6 +108,7 @@ class ModeManagerNode(Node):
             worker.start()
         self._estop = EstopEndpoint(self, self.machine.estop, retries=s.estop_retries)
         self._estop.start()
+        self._service_side.start()
         self._publish_mode()
         self.get_logger().info(
             f"ready in {self.machine.mode.name}; robot side: interface {s.network_interface!r}, DDS domain "
@@ -108,6 +119,7 @@ class ModeManagerNode(Node):
         """Stop relays and the e-stop executor, close the robot port. Call before destroy_node()."""
         for worker in self._workers:
             worker.stop()
+        self._service_side.shutdown()
         self._estop.shutdown()
         if self._mirroring:
             self._port.set_sport_state_listener(None)

@@ -1,0 +1,47 @@
+"""A helper node of the mode manager with an executor and thread of its own.
+
+Blocking work (a transition that waits seconds for SelectMode) and safety work (the e-stop) must not
+share executor threads with the command streams: each gets a side node in the main node's namespace
+whose services carry the main node's names (`<main node>/set_mode`), so `ros2 service call` and
+namespace remaps work as if the main node served them.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import rclpy
+from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.node import Node
+
+
+class SideNode:
+    def __init__(self, main: Node, suffix: str, executor: Executor) -> None:
+        self.main = main
+        self.node = rclpy.create_node(
+            f"{main.get_name()}_{suffix}",
+            namespace=main.get_namespace(),
+            context=main.context,
+            start_parameter_services=False,
+        )
+        self._executor = executor
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name=f"{suffix}_executor", daemon=True)
+
+    def name_under_main(self, name: str) -> str:
+        """`<main node's fully qualified name>/<name>`, i.e. what `~/<name>` means on the main node."""
+        return f"{self.main.get_fully_qualified_name()}/{name}"
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self._executor.spin()
+        except ExternalShutdownException:
+            pass
+
+    def shutdown(self) -> None:
+        self._executor.shutdown()
+        self._thread.join(5.0)
+        self.node.destroy_node()
