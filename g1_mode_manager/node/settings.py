@@ -7,6 +7,8 @@ from dataclasses import dataclass, fields
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
 
+from g1_mode_manager.core.velocity import VelocityLimits
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -18,12 +20,12 @@ class Settings:
     cmd_vel_timeout: float = 0.5
     cmd_vel_rate_hz: float = 20.0
     move_duration_s: float = 1.0
-    max_vx: float = 0.8
-    max_vy: float = 0.4
-    max_wz: float = 1.0
-    max_ax: float = 1.5
-    max_ay: float = 1.0
-    max_aw: float = 3.0
+    max_vx: float = VelocityLimits.max_vx
+    max_vy: float = VelocityLimits.max_vy
+    max_wz: float = VelocityLimits.max_wz
+    max_ax: float = VelocityLimits.max_ax
+    max_ay: float = VelocityLimits.max_ay
+    max_aw: float = VelocityLimits.max_aw
     arm_ramp_time_s: float = 2.0
     arm_cmd_timeout_s: float = 1.0
     arm_rate_hz: float = 50.0
