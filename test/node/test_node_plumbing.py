@@ -21,6 +21,7 @@ from std_srvs.srv import Trigger
 from fakes.fake_robot import RELEASED
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.node.mode_manager import MODE_QOS, ModeManagerNode
+from support.mode_manager import wait_until
 
 
 class Harness:
@@ -64,13 +65,6 @@ def harness():
     h.close()
 
 
-def _wait(predicate, timeout_s: float = 5.0) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
 
 
 @pytest.mark.parametrize(
@@ -90,7 +84,7 @@ def test_set_mode_by_name_case_insensitive_and_mode_is_latched(harness) -> None:
     assert r.success and r.mode == Mode.HIGH_LEVEL, r.message
     got: list[Mode] = []
     harness.client.create_subscription(Mode, "/g1_mode_manager/mode", got.append, MODE_QOS)  # joins late
-    assert _wait(lambda: any(m.mode == Mode.HIGH_LEVEL for m in got))
+    assert wait_until(lambda: any(m.mode == Mode.HIGH_LEVEL for m in got))
     assert got[-1].name == "HIGH_LEVEL" and got[-1].high_level_service_active
 
 
@@ -98,14 +92,14 @@ def test_cmd_vel_reaches_the_port_only_in_high_level(harness) -> None:
     pub = harness.client.create_publisher(Twist, "/cmd_vel", 10)
     msg = Twist()
     msg.linear.x = 0.5
-    assert _wait(lambda: pub.get_subscription_count() >= 1)
+    assert wait_until(lambda: pub.get_subscription_count() >= 1)
     harness.set_mode("idle")
     for _ in range(10):
         pub.publish(msg)
         time.sleep(0.02)
     assert harness.port.stream("set_velocity") == []
     harness.set_mode("high_level")
-    assert _wait(lambda: (pub.publish(msg) or True) and len(harness.port.stream("set_velocity")) >= 3)
+    assert wait_until(lambda: (pub.publish(msg) or True) and len(harness.port.stream("set_velocity")) >= 3)
     assert harness.port.stream("set_velocity")[-1].args[0] > 0.0
 
 
@@ -135,19 +129,19 @@ def test_after_emergency_every_set_mode_is_refused_and_late_subscriber_sees_it(h
         assert not r.success and r.mode == Mode.EMERGENCY
     got: list[Mode] = []
     harness.client.create_subscription(Mode, "/g1_mode_manager/mode", got.append, MODE_QOS)
-    assert _wait(lambda: bool(got)) and got[-1].name == "EMERGENCY" and got[-1].damp_confirmed
+    assert wait_until(lambda: bool(got)) and got[-1].name == "EMERGENCY" and got[-1].damp_confirmed
 
 
 def test_estop_topic_triggers_emergency(harness) -> None:
     from std_msgs.msg import Bool
 
     pub = harness.client.create_publisher(Bool, "/estop", 10)
-    assert _wait(lambda: pub.get_subscription_count() >= 1)
+    assert wait_until(lambda: pub.get_subscription_count() >= 1)
     pub.publish(Bool(data=False))
     time.sleep(0.2)
     assert harness.node.machine.mode.name == "UNINITIALIZED"
     pub.publish(Bool(data=True))
-    assert _wait(lambda: harness.node.machine.mode.name == "EMERGENCY")
+    assert wait_until(lambda: harness.node.machine.mode.name == "EMERGENCY")
 
 
 def test_service_flood_from_several_clients_keeps_node_up(harness) -> None:

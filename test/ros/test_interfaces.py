@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import threading
-import time
 
 import pytest
 import rclpy
@@ -11,6 +10,8 @@ from g1_mode_manager_msgs.msg import JointCommand, Mode, SportModeState
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from support.mode_manager import wait_until
 
 
 @pytest.fixture
@@ -33,13 +34,6 @@ def ros_pair():
     rclpy.try_shutdown(context=context)
 
 
-def _wait(predicate, timeout_s: float = 10.0) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.02)
-    return predicate()
 
 
 def test_mode_constants_match_the_issue() -> None:
@@ -62,7 +56,7 @@ def test_set_mode_service_round_trip(ros_pair) -> None:
     cli = client.create_client(SetMode, "set_mode")
     assert cli.wait_for_service(timeout_sec=10.0)
     future = cli.call_async(SetMode.Request(mode_name="high_level"))
-    assert _wait(future.done)
+    assert wait_until(future.done)
     result = future.result()
     assert seen == [(0, "high_level")]
     assert result.success and result.mode == Mode.HIGH_LEVEL and result.mode_name == "HIGH_LEVEL"
@@ -82,7 +76,7 @@ def test_loco_command_service_round_trip(ros_pair) -> None:
     cli = client.create_client(LocoCommand, "loco_command")
     assert cli.wait_for_service(timeout_sec=10.0)
     future = cli.call_async(LocoCommand.Request(command="speed_mode", value=3))
-    assert _wait(future.done)
+    assert wait_until(future.done)
     assert (future.result().code, future.result().message) == (7302, "speed_mode:3")
 
 
@@ -94,7 +88,7 @@ def test_mode_latched_for_late_subscriber_and_state_pubsub(ros_pair) -> None:
 
     got_mode: list[Mode] = []
     client.create_subscription(Mode, "mode", got_mode.append, latched)  # joins after the publish
-    assert _wait(lambda: len(got_mode) == 1)
+    assert wait_until(lambda: len(got_mode) == 1)
     assert got_mode[0].mode == Mode.EMERGENCY and got_mode[0].name == "EMERGENCY"
 
     got_state: list[SportModeState] = []
@@ -103,10 +97,10 @@ def test_mode_latched_for_late_subscriber_and_state_pubsub(ros_pair) -> None:
     client.create_subscription(JointCommand, "lowcmd", got_cmd.append, 10)
     state_pub = server.create_publisher(SportModeState, "sportmodestate", 10)
     cmd_pub = server.create_publisher(JointCommand, "lowcmd", 10)
-    assert _wait(lambda: state_pub.get_subscription_count() == 1 and cmd_pub.get_subscription_count() == 1)
+    assert wait_until(lambda: state_pub.get_subscription_count() == 1 and cmd_pub.get_subscription_count() == 1)
     state_pub.publish(SportModeState(fsm_id=500, fsm_mode=1, task_id=7, task_time=1.5))
     cmd_pub.publish(JointCommand(name=["left_knee_joint"], q=[0.5], dq=[0.0], tau=[1.0], kp=[40.0], kd=[1.0]))
-    assert _wait(lambda: got_state and got_cmd)
+    assert wait_until(lambda: got_state and got_cmd)
     assert (got_state[0].fsm_id, got_state[0].fsm_mode, got_state[0].task_id) == (500, 1, 7)
     assert got_state[0].task_time == pytest.approx(1.5)
     assert list(got_cmd[0].name) == ["left_knee_joint"] and list(got_cmd[0].q) == [0.5]

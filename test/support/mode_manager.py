@@ -73,7 +73,7 @@ class RosClient:
         rclpy.try_shutdown(context=self.context)
 
 
-def wait_until(predicate: Callable[[], bool], timeout_s: float, period_s: float = 0.02) -> bool:
+def wait_until(predicate: Callable[[], bool], timeout_s: float = 10.0, period_s: float = 0.02) -> bool:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if predicate():
