@@ -28,21 +28,25 @@ class RobotError(Exception):
 
 @runtime_checkable
 class ModePort(Protocol):
-    """Mode services and damping: what the mode state machine needs."""
+    """Mode services and damping: what the mode state machine needs.
+
+    ``timeout_s`` bounds one call (None: the port's default for that call); the e-stop passes short
+    ones of its own so that a dead link cannot hold it for the length of a SelectMode.
+    """
 
     def connect(self) -> None:
         """Initialise the SDK connection (DDS domain, clients). Idempotent."""
 
-    def check_mode(self) -> str:
+    def check_mode(self, timeout_s: float | None = None) -> str:
         """MotionSwitcher CheckMode: the active service's name, '' when released (debug mode)."""
 
-    def select_mode(self, name: str) -> None:
+    def select_mode(self, name: str, timeout_s: float | None = None) -> None:
         """MotionSwitcher SelectMode(name), e.g. 'ai'."""
 
-    def release_mode(self) -> None:
+    def release_mode(self, timeout_s: float | None = None) -> None:
         """MotionSwitcher ReleaseMode: the robot enters debug mode and goes limp."""
 
-    def damp(self) -> None:
+    def damp(self, timeout_s: float | None = None) -> None:
         """Loco SetFsmId(1), waiting for the robot's answer."""
 
     def damp_no_reply(self) -> None:
@@ -50,6 +54,9 @@ class ModePort(Protocol):
 
         Raises RobotError only if the request could not be sent at all.
         """
+
+    def get_fsm_id(self, timeout_s: float | None = None) -> int:
+        """Loco GetFsmId: the built-in controller's state (1 = damping); how an e-stop verifies itself."""
 
 
 @dataclass(frozen=True)
@@ -80,7 +87,6 @@ class RobotPort(ModePort, Protocol):
 
     # --- loco service (sport) --------------------------------------------------------------
     def set_fsm_id(self, fsm_id: int) -> None: ...
-    def get_fsm_id(self) -> int: ...
     def get_fsm_mode(self) -> int: ...
     def set_balance_mode(self, mode: int) -> None: ...
     def set_speed_mode(self, mode: int) -> None: ...

@@ -3,26 +3,39 @@
 A transition may be blocked inside a slow robot call when an e-stop arrives. The e-stop cannot
 interrupt that call, but once it returns the transition must not touch the robot again: every call
 (and every sleep) of a preemptible run checks the run's flag before and after, and raises
-:class:`Preempted` once it is set.
+:class:`Preempted` once it is set. A call that changes the robot (SelectMode, ReleaseMode) is also
+registered as in flight, atomically with that check, so an e-stop knows to wait for it to land
+before it believes the robot damped.
 """
 
 from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 
 from g1_mode_manager.core.port import ModePort
 
 #: note_service(known, active, preempted_flag): the machine's record of the high-level service.
 NoteService = Callable[[bool, bool, "threading.Event | None"], None]
+#: changing_call(preempted_flag): context around a robot-changing call; raises Preempted if the flag is set.
+ChangingCall = Callable[["threading.Event | None"], AbstractContextManager[object]]
 
 
 class Preempted(Exception):  # noqa: N818 (named for what happened, as in the design)
     """Internal: an e-stop preempted this run; the run must stop without further robot calls."""
 
 
+def _untracked(_flag: threading.Event | None) -> AbstractContextManager[object]:
+    return nullcontext()
+
+
 class RunPort:
-    """A ModePort wrapper for one transition or e-stop sequence (preemptible if given a flag)."""
+    """A ModePort wrapper for one transition or e-stop sequence (preemptible if given a flag).
+
+    ``call_timeout_s`` bounds CheckMode, Damp and GetFsmId, ``select_timeout_s`` SelectMode and
+    ReleaseMode (None: the port's defaults).
+    """
 
     def __init__(
         self,
@@ -30,11 +43,18 @@ class RunPort:
         note_service: NoteService,
         sleep: Callable[[float], None],
         preempted: threading.Event | None = None,
+        *,
+        changing_call: ChangingCall = _untracked,
+        call_timeout_s: float | None = None,
+        select_timeout_s: float | None = None,
     ) -> None:
         self._port = port
         self._note_service = note_service
         self._sleep = sleep
         self._preempted = preempted
+        self._changing_call = changing_call
+        self._call_timeout_s = call_timeout_s
+        self._select_timeout_s = select_timeout_s
 
     def _check(self, what: str) -> None:
         if self._preempted is not None and self._preempted.is_set():
@@ -47,7 +67,7 @@ class RunPort:
 
     def check_mode(self) -> str:
         self._check("check_mode")
-        name = self._port.check_mode()
+        name = self._port.check_mode(timeout_s=self._call_timeout_s)
         self._check("check_mode")
         self._note_service(True, bool(name), self._preempted)
         return name
@@ -55,24 +75,32 @@ class RunPort:
     def select_mode(self, name: str) -> None:
         self._check("select_mode")
         self._note_service(False, False, self._preempted)  # unknown until confirmed by CheckMode
-        self._port.select_mode(name)
+        with self._changing_call(self._preempted):
+            self._port.select_mode(name, timeout_s=self._select_timeout_s)
         self._check("select_mode")
 
     def release_mode(self) -> None:
         self._check("release_mode")
         self._note_service(False, False, self._preempted)
-        self._port.release_mode()
+        with self._changing_call(self._preempted):
+            self._port.release_mode(timeout_s=self._select_timeout_s)
         self._check("release_mode")
 
     def damp(self) -> None:
         self._check("damp")
-        self._port.damp()
+        self._port.damp(timeout_s=self._call_timeout_s)
         self._check("damp")
 
     def damp_no_reply(self) -> None:
         self._check("damp_no_reply")
         self._port.damp_no_reply()
         self._check("damp_no_reply")
+
+    def get_fsm_id(self) -> int:
+        self._check("get_fsm_id")
+        fsm_id = self._port.get_fsm_id(timeout_s=self._call_timeout_s)
+        self._check("get_fsm_id")
+        return fsm_id
 
     def sleep(self, seconds: float) -> None:
         self._check("sleep")

@@ -11,7 +11,7 @@ from g1_mode_manager.core.modes import Mode
 class Result(StrEnum):
     """How one attempt ended."""
 
-    OK = "ok"  # the target mode was reached (for an e-stop: Damp acknowledged)
+    OK = "ok"  # the target mode was reached (for an e-stop: the robot was seen damped)
     REFUSED = "refused"  # not attempted: illegal pair, same mode, busy, or EMERGENCY
     FAILED = "failed"  # attempted and failed: the old mode is kept (an e-stop stays EMERGENCY)
     PREEMPTED = "preempted"  # cut short by an e-stop; no further robot call, mode not committed
@@ -48,6 +48,9 @@ class MachineStatus:
     transition_target: Mode | None  # None when no transition is in progress
     service_known: bool  # the last thing learnt about the high-level service is still valid
     service_active: bool  # ... and it said: active (meaningful only if service_known)
-    damp_confirmed: bool  # the last Damp was acknowledged by the robot
+    damp_confirmed: bool  # the robot itself was seen damping with the service active (CheckMode + GetFsmId)
     last_refusal: str  # why the last refused or failed request did not happen ("" if none)
     last_error: str  # the last robot-side error ("" if none)
+    robot_mismatch: str = ""  # why the robot no longer matches the mode (forwarding stopped); "" if it does
+    reasserts: int = 0  # how often supervision had to re-damp the robot in EMERGENCY
+    version: int = 0  # grows with every change: a snapshot with a lower version is older

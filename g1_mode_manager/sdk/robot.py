@@ -132,8 +132,8 @@ class UnitreeRobot:
     def set_fsm_id(self, fsm_id: int) -> None:
         self.loco.set_fsm_id(fsm_id)
 
-    def get_fsm_id(self) -> int:
-        return self.loco.get_fsm_id()
+    def get_fsm_id(self, timeout_s: float | None = None) -> int:
+        return self.loco.get_fsm_id(timeout_s=timeout_s)
 
     def get_fsm_mode(self) -> int:
         return self.loco.get_fsm_mode()

@@ -10,11 +10,14 @@ import pytest
 from fakes.fake_robot import ACTIVE, RELEASED, Call
 from fakes.machine_rig import make_rig
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.machine import Outcome, Result
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.protocol import api_ids
 
 UN, ID, HI, LO, EM = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY
+#: An e-stop that gives up quickly, for the failure paths (the default retries for 10 s).
+FAST_FAIL = EstopTiming(select_s=0.2, total_s=0.2)
 
 #: Robot calls of each legal cell, starting from a robot whose high-level service is active and a
 #: machine that reached the source mode the ordinary way.
@@ -28,11 +31,12 @@ EXPECTED_CALLS: dict[tuple[Mode, Mode], list[str]] = {
     (HI, LO): ["check_mode", "release_mode", "check_mode"],
     (LO, ID): [],
     (LO, HI): ["check_mode", "select_mode", "check_mode"],
-    (UN, EM): ["connect", "damp_no_reply", "check_mode", "damp"],
-    (ID, EM): ["damp_no_reply", "check_mode", "damp"],
-    (HI, EM): ["damp_no_reply", "damp"],
-    (LO, EM): ["damp_no_reply", "check_mode", "select_mode", "check_mode", "damp"],
-    (EM, EM): ["damp_no_reply", "check_mode", "damp"],
+    # e-stop: DampNoReply first, service active, Damp, then verified on the robot (CheckMode + GetFsmId)
+    (UN, EM): ["connect", "damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
+    (ID, EM): ["damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
+    (HI, EM): ["damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
+    (LO, EM): ["damp_no_reply", "check_mode", "select_mode", "check_mode", "damp", "check_mode", "get_fsm_id"],
+    (EM, EM): ["damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
 }
 REFUSALS: dict[tuple[Mode, Mode], str] = {
     **{(EM, m): "nothing leaves EMERGENCY" for m in (UN, ID, HI, LO)},
@@ -114,7 +118,7 @@ def test_request_emergency_is_an_estop() -> None:
     rig.bring_to(HI)
     outcome = rig.machine.request(EM)
     assert outcome.success and rig.machine.is_emergency()
-    assert "Damp acknowledged" in outcome.message
+    assert "robot damped (verified" in outcome.message
 
 
 def test_request_accepts_message_numbers_and_rejects_unknown_ones() -> None:
@@ -271,45 +275,66 @@ def test_connect_failure_stays_uninitialized_and_is_retried() -> None:
 
 
 # --- e-stop failure paths ----------------------------------------------------------------------------
-def test_damp_failing_from_low_level_ends_in_emergency_and_a_repeat_succeeds() -> None:
+def test_a_damp_failure_is_retried_within_the_same_estop() -> None:
     rig = make_rig()
     rig.bring_to(LO)
     rig.robot.fail("damp", api_ids.ERR_CLIENT_API_TIMEOUT)
+    outcome = rig.machine.estop()
+    assert outcome.success and outcome.mode is EM, outcome
+    assert "retrying: damp failed: 3104" in outcome.message
+    assert rig.robot.names().count("damp") == 2
+    assert rig.machine.status().damp_confirmed and rig.robot.damped
+
+
+def test_damp_failing_for_the_whole_budget_fails_then_a_repeat_succeeds() -> None:
+    rig = make_rig(estop_timing=FAST_FAIL)
+    rig.bring_to(LO)
+    rig.robot.fail("damp", api_ids.ERR_CLIENT_API_TIMEOUT, times=1000)
     first = rig.machine.estop()
     assert not first.success and first.mode is EM and rig.machine.is_emergency()
     assert first.message.startswith("e-stop incomplete: damp failed: 3104")
-    assert "call estop again to retry" in first.message
+    assert "supervision keeps trying" in first.message
     assert not rig.machine.status().damp_confirmed
     assert rig.records[-1].outcome is Result.FAILED
 
+    rig.robot.clear_faults()
     second = rig.machine.estop()
     assert second.success and rig.machine.is_emergency()
     assert rig.machine.status().damp_confirmed and rig.robot.damped
 
 
-def test_direct_damp_failing_from_high_level_falls_back_to_reselecting() -> None:
+def test_estop_from_high_level_reselects_a_service_released_behind_its_back() -> None:
     rig = make_rig()
     rig.bring_to(HI)
-    rig.robot.set_service(RELEASED)  # released behind the machine's back: Damp cannot work
+    rig.robot.set_service(RELEASED)  # released behind the machine's back: Damp cannot work yet
     before = len(rig.robot.calls)
     outcome = rig.machine.estop()
     assert outcome.success, outcome
-    assert rig.robot.names(before) == ["damp_no_reply", "damp", "check_mode", "select_mode", "check_mode", "damp"]
-    assert "direct Damp failed" in outcome.message
+    assert rig.robot.names(before) == ["damp_no_reply", "check_mode", "select_mode", "check_mode", "damp",
+                                       "check_mode", "get_fsm_id"]
+    assert rig.robot.damped and rig.robot.service == ACTIVE
 
 
-def test_damp_failing_twice_from_high_level_needs_a_repeated_estop() -> None:
-    rig = make_rig()
+def test_estop_success_needs_the_robot_to_show_damping() -> None:
+    """A Damp the robot acknowledges but does not execute is no success: verified by GetFsmId."""
+    rig = make_rig(estop_timing=FAST_FAIL)
     rig.bring_to(HI)
-    rig.robot.fail("damp", times=2)
-    assert not rig.machine.estop().success
-    assert rig.machine.estop().success
-    assert rig.machine.mode is EM
+    original = rig.robot.damp
+
+    def acknowledged_but_ignored(timeout_s: float | None = None) -> None:
+        original(timeout_s)
+        rig.robot.undamp()
+
+    rig.robot.damp = acknowledged_but_ignored  # type: ignore[method-assign]
+    rig.robot.damp_no_reply = lambda: None  # type: ignore[method-assign]
+    outcome = rig.machine.estop()
+    assert not outcome.success and "robot not damping: GetFsmId says 4" in outcome.message
+    assert not rig.machine.status().damp_confirmed
 
 
 @pytest.mark.parametrize("source", [UN, ID, LO, EM], ids=lambda m: m.name)
 def test_estop_when_service_cannot_be_made_active(source: Mode) -> None:
-    rig = make_rig(service=RELEASED, select_timeout_s=1.0)
+    rig = make_rig(service=RELEASED, estop_timing=EstopTiming(select_s=1.0, total_s=1.0))
     rig.bring_to(source)
     rig.robot.set_service(RELEASED)
     rig.robot.select_never_works = True
@@ -324,22 +349,29 @@ def test_estop_when_service_cannot_be_made_active(source: Mode) -> None:
 
 
 def test_estop_select_error_is_reported() -> None:
-    rig = make_rig(service=RELEASED)
+    rig = make_rig(service=RELEASED, estop_timing=FAST_FAIL)
     rig.bring_to(LO)
-    rig.robot.fail("select_mode", api_ids.ERR_CLIENT_API_TIMEOUT)
+    rig.robot.fail("select_mode", api_ids.ERR_CLIENT_API_TIMEOUT, times=1000)
     outcome = rig.machine.estop()
     assert not outcome.success and "select_mode failed: 3104" in outcome.message
     assert rig.machine.status().last_error.startswith("select_mode failed")
 
 
-def test_estop_from_uninitialized_connects_first_and_reports_connect_failure() -> None:
+def test_estop_from_uninitialized_connects_first_and_retries_a_failed_connect() -> None:
     rig = make_rig()
     rig.robot.fail("connect", api_ids.ERR_CLIENT_SEND)
     outcome = rig.machine.estop()
+    assert outcome.success and rig.machine.is_emergency()
+    assert "retrying: connect failed" in outcome.message
+    assert rig.robot.names()[:3] == ["connect", "connect", "damp_no_reply"]
+
+
+def test_estop_reports_a_connect_that_never_works() -> None:
+    rig = make_rig(estop_timing=FAST_FAIL)
+    rig.robot.fail("connect", api_ids.ERR_CLIENT_SEND, times=1000)
+    outcome = rig.machine.estop()
     assert not outcome.success and rig.machine.is_emergency()
-    assert "connect failed" in outcome.message and "call estop again" in outcome.message
-    assert rig.machine.estop().success
-    assert rig.robot.names()[1:3] == ["connect", "damp_no_reply"]
+    assert "connect failed" in outcome.message
 
 
 def test_damp_no_reply_failure_does_not_stop_the_estop() -> None:
@@ -351,26 +383,25 @@ def test_damp_no_reply_failure_does_not_stop_the_estop() -> None:
     assert "DampNoReply failed" in outcome.message
 
 
-@pytest.mark.parametrize("call", ["damp", "check_mode", "damp_no_reply"])
+@pytest.mark.parametrize("call", ["damp", "check_mode", "damp_no_reply", "get_fsm_id"])
 def test_estop_survives_unexpected_exceptions(call: str) -> None:
     rig = make_rig()
     rig.bring_to(ID)
     rig.robot.crash(call, RuntimeError("driver bug"))
     outcome = rig.machine.estop()
     assert rig.machine.is_emergency() and outcome.mode is EM
+    assert outcome.success and rig.robot.damped
     if call != "damp_no_reply":
-        assert not outcome.success and "RuntimeError" in outcome.message
-    assert rig.machine.estop().success
+        assert "RuntimeError" in outcome.message
 
 
-def test_estop_with_check_mode_lying_active_fails_damp_then_retries() -> None:
+def test_estop_with_check_mode_lying_active_fails_damp_then_reselects() -> None:
     rig = make_rig()
     rig.bring_to(LO)  # released
     rig.robot.lie_check(1)  # the next CheckMode claims the service is active
-    first = rig.machine.estop()
-    assert not first.success and "damp failed" in first.message
-    second = rig.machine.estop()
-    assert second.success and rig.robot.damped
+    outcome = rig.machine.estop()
+    assert outcome.success and rig.robot.damped
+    assert "retrying: damp failed" in outcome.message
 
 
 # --- records, history, status, callbacks ------------------------------------------------------------
@@ -409,8 +440,10 @@ def test_estop_notifies_the_mode_switch_before_its_result() -> None:
     seen = len(rig.statuses)
     rig.robot.fail("damp")
     rig.machine.estop()
-    assert [s.mode for s in rig.statuses[seen:]] == [EM, EM]
-    assert not rig.statuses[-1].damp_confirmed and rig.statuses[-1].last_error
+    first, last = rig.statuses[seen], rig.statuses[-1]
+    assert first.mode is EM and not first.damp_confirmed
+    assert last.mode is EM and last.damp_confirmed
+    assert all(s.mode is EM for s in rig.statuses[seen:])
 
 
 def test_status_service_knowledge_follows_check_mode() -> None:
@@ -493,7 +526,7 @@ def test_concurrent_request_is_refused_busy_not_queued() -> None:
     assert out and out[0].success and rig.machine.mode is HI
 
 
-def test_estop_preempts_a_transition_blocked_in_select_mode() -> None:
+def test_estop_waits_for_a_select_in_flight_before_it_claims_success() -> None:
     rig = make_rig(service=RELEASED, real_time=True, poll_interval_s=0.01)
     rig.bring_to(ID)
     hold = rig.robot.hold("select_mode")
@@ -502,12 +535,11 @@ def test_estop_preempts_a_transition_blocked_in_select_mode() -> None:
     before = len(rig.robot.calls)
 
     estop, e_out = _in_thread(rig.machine.estop)
-    estop.join(5)
+    estop.join(0.5)
 
-    # the e-stop finished while the transition is still blocked inside the robot
-    assert not estop.is_alive() and transition.is_alive()
-    assert e_out[0].success and e_out[0].mode is EM and rig.machine.is_emergency()
-    assert "preempted IDLE->HIGH_LEVEL" in e_out[0].message
+    # the robot is damped already, but the transition's SelectMode has not landed: no answer yet
+    assert estop.is_alive() and transition.is_alive()
+    assert rig.machine.is_emergency() and not rig.machine.status().damp_confirmed
     estop_calls = rig.robot.calls[before:]
     assert estop_calls[0].name == "damp_no_reply"
     assert all(c.thread == estop.name for c in estop_calls)
@@ -515,35 +547,43 @@ def test_estop_preempts_a_transition_blocked_in_select_mode() -> None:
     assert not rig.machine.status().transition_in_progress
     assert not rig.machine.allows_cmd_vel()
 
-    after_estop = len(rig.robot.calls)
     hold.release()
     transition.join(5)
-    assert not transition.is_alive()
-    assert rig.robot.calls[after_estop:] == [], "the preempted transition touched the robot again"
+    estop.join(5)
+    assert not transition.is_alive() and not estop.is_alive()
+    assert [c for c in rig.robot.calls[before:] if c.thread == transition.name and c.name != "select_mode"] == [], \
+        "the preempted transition touched the robot again"
+    assert e_out[0].success and e_out[0].mode is EM, e_out[0]
+    assert "preempted IDLE->HIGH_LEVEL" in e_out[0].message
     assert not t_out[0].success and t_out[0].mode is EM
-    assert rig.machine.mode is EM
-    preempted = [r for r in rig.records if r.outcome is Result.PREEMPTED]
-    assert [(r.source, r.target) for r in preempted] == [(ID, HI)]
-    assert rig.records[-1].outcome is Result.PREEMPTED  # the transition's record comes last
-    assert rig.machine.status().service_known and rig.machine.status().service_active
+    assert [(r.source, r.target) for r in rig.records if r.outcome is Result.PREEMPTED] == [(ID, HI)]
+    assert rig.robot.damped and rig.machine.status().damp_confirmed
 
 
-def test_estop_during_release_loop_stops_further_releases() -> None:
+def test_a_release_landing_after_the_estop_damp_is_followed_by_reselect_and_damp() -> None:
+    """The race of a real robot: ReleaseMode takes seconds and lands after the e-stop's Damp."""
     rig = make_rig(real_time=True, poll_interval_s=0.005, release_timeout_s=10.0)
     rig.bring_to(HI)
-    rig.robot.release_never_works = True
-    hold = rig.robot.hold("release_mode")  # the first release blocks ...
+    hold = rig.robot.hold("release_mode")  # the transition's ReleaseMode is slow inside the robot
     transition, t_out = _in_thread(rig.machine.request, LO)
     assert hold.wait_entered()
 
-    outcome = rig.machine.estop()
-
-    assert outcome.success and rig.machine.is_emergency()
-    after_estop = len(rig.robot.calls)
-    hold.release()
+    estop, e_out = _in_thread(rig.machine.estop)
+    deadline = time.monotonic() + 5
+    while not rig.robot.damped and time.monotonic() < deadline:
+        time.sleep(0.001)
+    assert rig.robot.damped and estop.is_alive()
+    landed = len(rig.robot.calls)
+    hold.release()  # ... and now it lands: the robot is released (debug mode), no longer damped
     transition.join(5)
-    assert rig.robot.calls[after_estop:] == []
-    assert t_out[0].mode is EM and rig.records[-1].outcome is Result.PREEMPTED
+    estop.join(5)
+
+    assert e_out[0].success, e_out[0]
+    assert rig.robot.service == ACTIVE and rig.robot.damped
+    after = rig.robot.names(landed)
+    assert "select_mode" in after and after.index("select_mode") < len(after) - after[::-1].index("damp") - 1
+    assert t_out[0].mode is EM and rig.records[-1].outcome is Result.OK
+    assert [c for c in rig.robot.calls[landed:] if c.thread == transition.name] == []
 
 
 def test_estop_during_a_free_running_release_loop() -> None:
@@ -568,14 +608,14 @@ def test_estop_during_a_free_running_release_loop() -> None:
     assert rig.records[-1].outcome is Result.PREEMPTED
 
 
-def test_two_concurrent_estops_both_end_damped_in_emergency() -> None:
+def test_a_second_estop_fires_at_once_and_joins_the_running_sequence() -> None:
     rig = make_rig(real_time=True)
     rig.bring_to(LO)
     hold = rig.robot.hold("damp")
     first, out1 = _in_thread(rig.machine.estop)
     assert hold.wait_entered()
     second, out2 = _in_thread(rig.machine.estop)
-    # the second fires its own DampNoReply at once, then waits for the first sequence
+    # the second fires its own DampNoReply at once, then joins the running sequence (no queueing)
     deadline = time.monotonic() + 5
     while rig.robot.names().count("damp_no_reply") < 2 and time.monotonic() < deadline:
         time.sleep(0.001)
@@ -585,4 +625,4 @@ def test_two_concurrent_estops_both_end_damped_in_emergency() -> None:
     second.join(5)
     assert out1[0].success and out2[0].success
     assert rig.machine.is_emergency() and rig.robot.damped
-    assert rig.robot.names().count("damp") == 2
+    assert rig.robot.names().count("damp") == 1  # one sequence served both requests

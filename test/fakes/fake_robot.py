@@ -12,6 +12,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import defaultdict, deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from g1_mode_manager.core.port import RobotError
@@ -20,7 +21,7 @@ from g1_mode_manager.protocol import api_ids
 ACTIVE = api_ids.HIGH_LEVEL_SERVICE_NAME
 RELEASED = ""
 
-CALL_NAMES = ("connect", "check_mode", "select_mode", "release_mode", "damp", "damp_no_reply")
+CALL_NAMES = ("connect", "check_mode", "select_mode", "release_mode", "damp", "damp_no_reply", "get_fsm_id")
 
 
 @dataclass
@@ -80,8 +81,9 @@ class FakeRobot:
         self.release_never_works = False
         #: SelectMode answers ok but no service becomes active
         self.select_never_works = False
-        #: real seconds every call takes inside the robot (for races between threads)
-        self.latency_s = 0.0
+        #: real seconds a call takes inside the robot before its effect (for races between threads):
+        #: a number for every call, or a function of the call's name (latencies that differ per call)
+        self.latency_s: float | Callable[[str], float] = 0.0
 
     # --- fault injection ---------------------------------------------------------------------------
     def fail(self, name: str, code: int = api_ids.ERR_CLIENT_API_TIMEOUT, times: int = 1) -> None:
@@ -162,7 +164,7 @@ class FakeRobot:
         with self._lock:
             self.connected = True
 
-    def check_mode(self) -> str:
+    def check_mode(self, timeout_s: float | None = None) -> str:
         self._enter("check_mode", ())
         with self._lock:
             name = self._stale.popleft() if self._stale else self._service
@@ -171,7 +173,7 @@ class FakeRobot:
                 name = RELEASED if name else ACTIVE
             return name
 
-    def select_mode(self, name: str) -> None:
+    def select_mode(self, name: str, timeout_s: float | None = None) -> None:
         self._enter("select_mode", (name,))
         with self._lock:
             if not self.select_never_works and self._service != name:
@@ -179,7 +181,7 @@ class FakeRobot:
                 self.damped = False  # the robot comes back in zero torque
             self._release_count = 0
 
-    def release_mode(self) -> None:
+    def release_mode(self, timeout_s: float | None = None) -> None:
         self._enter("release_mode", ())
         with self._lock:
             self._release_count += 1
@@ -189,7 +191,7 @@ class FakeRobot:
                 self.damped = False
                 self._release_count = 0
 
-    def damp(self) -> None:
+    def damp(self, timeout_s: float | None = None) -> None:
         call = self._enter("damp", ())
         with self._lock:
             if not self._service:
@@ -203,6 +205,21 @@ class FakeRobot:
         with self._lock:
             if self._service:  # in debug mode nobody listens; the request is lost without a word
                 self.damped = True
+
+    def get_fsm_id(self, timeout_s: float | None = None) -> int:
+        """1 while damping, else 4 (standing); 3203 in debug mode, as the sport service answers then."""
+        call = self._enter("get_fsm_id", ())
+        with self._lock:
+            if not self._service:
+                error = RobotError("get_fsm_id", api_ids.ERR_SERVER_API_NOT_IMPL, "sport service released")
+                call.result = str(error)
+                raise error
+            return 1 if self.damped else 4
+
+    def undamp(self) -> None:
+        """Another program takes the robot out of damping (e.g. SetFsmId(4)) behind the machine's back."""
+        with self._lock:
+            self.damped = False
 
     # --- internals -----------------------------------------------------------------------------------
     def _change_service(self, name: str) -> None:
@@ -222,8 +239,9 @@ class FakeRobot:
             except RobotError as exc:
                 call.result = str(exc)
                 raise
-        if self.latency_s:
-            time.sleep(self.latency_s)
+        latency = self.latency_s(name) if callable(self.latency_s) else self.latency_s
+        if latency:
+            time.sleep(latency)
         with self._lock:
             fault = self._faults[name].popleft() if self._faults[name] else None
             if fault is None and not self.connected and name != "connect":

@@ -50,8 +50,6 @@ class FakeRobotPort(FakeRobot):
     def set_fsm_id(self, fsm_id: int) -> None:
         self._record("set_fsm_id", fsm_id)
 
-    def get_fsm_id(self) -> int:
-        return self.sport.fsm_id if self.sport else 0
 
     def get_fsm_mode(self) -> int:
         return self.sport.fsm_mode if self.sport else 0
