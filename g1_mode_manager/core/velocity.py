@@ -1,4 +1,4 @@
-"""cmd_vel safety: reject non-finite input, clamp each axis, limit acceleration."""
+"""cmd_vel safety: reject non-finite input, clamp each axis, limit acceleration, bound the Move lease."""
 
 from __future__ import annotations
 
@@ -19,6 +19,26 @@ class Velocity:
 
 
 ZERO = Velocity()
+
+#: The real G1's Move ignores velocities below about this (m/s and rad/s, per axis): a command whose
+#: every axis is below it does not walk the robot, so the relay sends a StopMove instead, once.
+MOVE_DEAD_BAND = 0.1
+
+#: Longest Move lease (s): a node that dies lets the robot stop by itself within this time.
+MAX_MOVE_DURATION_S = 2.0
+
+
+def in_dead_band(v: Velocity, band: float = MOVE_DEAD_BAND) -> bool:
+    """True if the robot would ignore this command on every axis."""
+    return abs(v.vx) < band and abs(v.vy) < band and abs(v.wz) < band
+
+
+def check_move_duration(duration_s: float) -> float:
+    """A Move lease must be finite, > 0 and at most MAX_MOVE_DURATION_S (continuous mode is refused)."""
+    if not (math.isfinite(duration_s) and 0.0 < duration_s <= MAX_MOVE_DURATION_S):
+        raise ValueError(f"move duration must be in (0, {MAX_MOVE_DURATION_S}] s so the robot stops by itself "
+                         f"if the node dies, got {duration_s}")
+    return duration_s
 
 
 @dataclass(frozen=True)
@@ -64,32 +84,49 @@ def sanitize(vx: float, vy: float, wz: float, limits: VelocityLimits) -> Sanitiz
 
 
 class RateLimiter:
-    """Moves the sent velocity toward the target by at most the acceleration limit per step."""
+    """Moves the commanded velocity toward the target by at most the acceleration limit per step.
 
-    def __init__(self, limits: VelocityLimits) -> None:
+    ``propose`` computes the next command without changing state; ``commit`` records it once the
+    robot acknowledged it, so refused or lost Moves never advance the ramp. ``dt`` is clamped to
+    ``max_dt_s``: a stalled caller ramps slower, never in one jump.
+    """
+
+    def __init__(self, limits: VelocityLimits, max_dt_s: float = math.inf) -> None:
+        if not max_dt_s > 0.0:
+            raise ValueError(f"max_dt_s must be > 0, got {max_dt_s}")
         self._limits = limits
+        self._max_dt_s = max_dt_s
         self._current = ZERO
 
     @property
     def current(self) -> Velocity:
+        """The last committed command (what the robot acknowledged)."""
         return self._current
 
-    def reset(self) -> None:
-        """After a StopMove the robot is commanded to zero: start again from there."""
-        self._current = ZERO
+    def reset(self, start: Velocity = ZERO) -> None:
+        """Start again from ``start`` (the robot's velocity, or zero when unknown)."""
+        self._current = start
 
-    def step(self, target: Velocity, dt_s: float) -> Velocity:
+    def propose(self, target: Velocity, dt_s: float) -> Velocity:
         if not (math.isfinite(dt_s) and dt_s >= 0.0):
             raise ValueError(f"dt must be finite and >= 0, got {dt_s}")
+        dt_s = min(dt_s, self._max_dt_s)
         lim = self._limits
 
         def toward(cur: float, tgt: float, accel: float) -> float:
             step = accel * dt_s
             return cur + max(-step, min(step, tgt - cur))
 
-        self._current = Velocity(
+        return Velocity(
             toward(self._current.vx, target.vx, lim.max_ax),
             toward(self._current.vy, target.vy, lim.max_ay),
             toward(self._current.wz, target.wz, lim.max_aw),
         )
+
+    def commit(self, sent: Velocity) -> None:
+        self._current = sent
+
+    def step(self, target: Velocity, dt_s: float) -> Velocity:
+        """propose + commit, for callers whose every step reaches the robot."""
+        self._current = self.propose(target, dt_s)
         return self._current

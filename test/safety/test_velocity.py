@@ -6,7 +6,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from g1_mode_manager.core.velocity import RateLimiter, Velocity, VelocityLimits, sanitize
+from g1_mode_manager.core.velocity import (
+    MAX_MOVE_DURATION_S,
+    RateLimiter,
+    Velocity,
+    VelocityLimits,
+    check_move_duration,
+    in_dead_band,
+    sanitize,
+)
 
 LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)
 
@@ -68,3 +76,23 @@ def test_limits_must_be_positive() -> None:
         VelocityLimits(max_vx=0.0)
     with pytest.raises(ValueError, match="max_aw"):
         VelocityLimits(max_aw=math.nan)
+
+
+def test_limiter_dt_is_clamped_and_propose_does_not_advance() -> None:
+    limiter = RateLimiter(LIMITS, max_dt_s=0.05)
+    assert limiter.propose(Velocity(0.8, 0.0, 0.0), 0.5).vx == pytest.approx(0.05)  # a stall: one nominal step
+    assert limiter.current == Velocity()  # nothing committed: a refused Move leaves the ramp where it was
+    limiter.commit(Velocity(0.05, 0.0, 0.0))
+    assert limiter.propose(Velocity(0.8, 0.0, 0.0), 0.05).vx == pytest.approx(0.10)
+
+
+def test_dead_band_is_every_axis_below_the_robot_threshold() -> None:
+    assert in_dead_band(Velocity(0.09, -0.09, 0.05))
+    assert not in_dead_band(Velocity(0.1, 0.0, 0.0)) and not in_dead_band(Velocity(0.0, 0.0, -0.2))
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, 2.01, 864000.0, 1e6, math.nan, math.inf])
+def test_move_lease_is_bounded_so_a_dead_node_lets_the_robot_stop(bad: float) -> None:
+    with pytest.raises(ValueError, match="stops by itself"):
+        check_move_duration(bad)
+    assert check_move_duration(MAX_MOVE_DURATION_S) == MAX_MOVE_DURATION_S

@@ -2,7 +2,7 @@
 
 import pytest
 
-from g1_mode_manager.core.arm_ramp import ArmWeightRamp
+from g1_mode_manager.core.arm_ramp import ArmWeightRamp, robot_accepts_arm_sdk
 from g1_mode_manager.core.watchdog import Watchdog
 
 
@@ -50,3 +50,24 @@ def test_ramp_goes_in_and_out_linearly_without_jumps() -> None:
 def test_ramp_rejects_bad_time() -> None:
     with pytest.raises(ValueError):
         ArmWeightRamp(0.0)
+
+
+def test_ramp_step_is_bounded_by_the_nominal_period_whatever_the_stall() -> None:
+    ramp = ArmWeightRamp(2.0, period_s=0.02)
+    assert ramp.step(True, 0.5) == pytest.approx(0.01)  # a 0.5 s stall: one nominal step, not 0.25
+
+
+def test_ramp_propose_changes_nothing_until_committed() -> None:
+    ramp = ArmWeightRamp(1.0, period_s=0.02)
+    assert ramp.propose(True, 0.02) == pytest.approx(0.02) and ramp.weight == 0.0
+    ramp.commit(0.02)
+    ramp.restart()
+    assert ramp.weight == 0.0
+
+
+@pytest.mark.parametrize(("fsm_id", "fsm_mode", "accepts"), [
+    (4, 0, True), (4, 1, False), (706, 1, False), (702, 0, True), (500, 0, True), (500, 1, True),
+    (801, 1, True), (0, 0, False), (1, 0, False), (2, 0, False), (3, 0, False),
+])
+def test_robot_accepts_arm_sdk_only_standing_or_walking(fsm_id, fsm_mode, accepts) -> None:
+    assert robot_accepts_arm_sdk(fsm_id, fsm_mode) is accepts
