@@ -1,39 +1,82 @@
-"""/cmd_vel -> LocoClient Move, in HIGH_LEVEL only: sanitised, clamped, rate-limited, latest-wins, watchdog."""
+"""/cmd_vel -> LocoClient Move, in HIGH_LEVEL only: sanitised, clamped, rate-limited, latest-wins, watchdog.
+
+A command is sent as soon as it arrives, by a sender thread of its own (the /cmd_vel callback only
+stores it and wakes the thread: a blocking RPC there would stall the node's executor). A fixed-rate
+tick keeps a running Move alive and runs the watchdog; Moves never exceed ``max_rate_hz``.
+"""
 
 from __future__ import annotations
 
+import math
 import threading
+import time
+from collections.abc import Callable
 
+from g1_mode_manager.core import modes
+from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
-from g1_mode_manager.core.velocity import ZERO, RateLimiter, Sanitized, Velocity, VelocityLimits, sanitize
+from g1_mode_manager.core.velocity import (
+    ZERO,
+    RateLimiter,
+    Sanitized,
+    Velocity,
+    VelocityLimits,
+    check_move_duration,
+    in_dead_band,
+    sanitize,
+)
 from g1_mode_manager.core.watchdog import Watchdog
+from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
+#: A StopMove that got no answer is sent again up to this many times in all; after that the robot
+#: stops by itself when the last Move's lease (move_duration_s) runs out.
+STOP_ATTEMPTS = 5
+
 
 class CmdVelRelay:
-    """Keeps only the latest command; `tick` (called at a fixed rate) sends at most one Move.
+    """Keeps only the latest command; each `step` sends at most one Move (or StopMove).
 
-    A slow RPC delays the next tick but never builds a queue. Silence longer than the watchdog
-    timeout sends exactly one StopMove (SetVelocity 0, 0, 0); so does the gate closing while moving.
+    The acceleration limiter advances only on Moves the robot acknowledged, with dt clamped to the
+    tick period; a refused or unanswered Move restarts it from zero. A Move whose answer was lost
+    counts as "maybe moving". Silence, the gate closing, a sub-dead-band command or shutdown while
+    (maybe) moving sends a StopMove, repeated until acknowledged (bounded).
     """
 
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
-                 limits: VelocityLimits, timeout_s: float, move_duration_s: float) -> None:
+                 limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float = 20.0,
+                 max_rate_hz: float = 50.0, on_error: Callable[[BaseException], None] | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        if not (rate_hz > 0.0 and max_rate_hz > 0.0):
+            raise ValueError(f"cmd_vel rates must be > 0 Hz, got {rate_hz} and {max_rate_hz}")
         self._port = port
         self._gate = gate
         self._link = link
         self._events = events
         self._limits = limits
-        self._limiter = RateLimiter(limits)
-        self._watchdog = Watchdog(timeout_s)
-        self._move_duration_s = move_duration_s
+        self._period_s = 1.0 / rate_hz
+        self._min_interval_s = 1.0 / max_rate_hz
+        self._limiter = RateLimiter(limits, max_dt_s=self._period_s)
+        self._watchdog = Watchdog(timeout_s, clock)
+        self._move_duration_s = check_move_duration(move_duration_s)
+        self._on_error = on_error
+        self._clock = clock
         self._target = ZERO
         self._lock = threading.Lock()
-        self._moving = False  # the robot may be executing a non-zero Move we sent
+        self._wake = threading.Event()
+        self._stopped = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="cmd_vel_sender", daemon=True)
+        # sender thread only:
+        self._maybe_moving = False  # a non-zero Move may be running on the robot
+        self._stop_reason: str | None = None  # a StopMove is owed
+        self._stop_attempts = 0
+        self._last_ack: float | None = None  # when the robot acknowledged the last Move
+        self._last_send = -math.inf
 
+    # --- what the node calls -------------------------------------------------------------------
     def submit(self, vx: float, vy: float, wz: float) -> Sanitized | None:
-        """Take a new command from /cmd_vel; returns what will be sent, or None if dropped."""
+        """Take a new command from /cmd_vel (never blocks); returns what will be sent, or None if dropped."""
         self._events.count("cmd_vel_received")
         if not self._gate.allows_cmd_vel():
             self._events.count("cmd_vel_dropped")
@@ -51,43 +94,114 @@ class CmdVelRelay:
         with self._lock:
             self._target = result.velocity
         self._watchdog.feed()
+        self._wake.set()
         return result
 
-    def tick(self, dt_s: float) -> None:
+    def on_leave(self, source: Mode, _target: Mode) -> None:
+        """Leave listener: leaving HIGH_LEVEL wakes the sender, which stops a running Move."""
+        if source is Mode.HIGH_LEVEL:
+            self._wake.set()
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self, timeout_s: float = 3.0) -> None:
+        """Stop the sender; then a StopMove if the robot may be walking (bounded: two attempts)."""
+        self._stopped.set()
+        self._wake.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout_s)
+        if self._maybe_moving or self._stop_reason is not None:
+            for _ in range(2):
+                if self._stop_move("node shutting down"):
+                    break
+
+    # --- the sender ----------------------------------------------------------------------------
+    def _run(self) -> None:
+        last_step = self._clock()
+        while not self._stopped.is_set():
+            self._wake.wait(max(0.0, last_step + self._period_s - self._clock()))
+            self._wake.clear()
+            if self._stopped.wait(max(0.0, self._last_send + self._min_interval_s - self._clock())):
+                break
+            last_step = self._clock()
+            try:
+                self.step()
+            except Exception as exc:  # a relay bug must not end the sender silently
+                if self._on_error is not None:
+                    self._on_error(exc)
+
+    def step(self) -> None:
+        """One decision with the latest command: at most one Move or StopMove."""
         if not (self._gate.allows_cmd_vel() and self._link.link_ok()):
             self._watchdog.reset()
             with self._lock:
                 self._target = ZERO
-            if self._moving:
-                self._stop_move("forwarding stopped")
+            self._rest("forwarding stopped")
             return
         if self._watchdog.expired():
-            if self._moving:
-                self._stop_move(f"no cmd_vel for {self._watchdog.timeout_s} s")
+            self._rest(f"no cmd_vel for {self._watchdog.timeout_s} s")
             return
         with self._lock:
             target = self._target
-        velocity = self._limiter.step(target, dt_s)
-        self._send(velocity)
+        now = self._clock()
+        dt = self._period_s if self._last_ack is None else now - self._last_ack
+        v = self._limiter.propose(target, dt)
+        if in_dead_band(v) and in_dead_band(target):
+            self._rest("command below the robot's dead band (0.1)")
+            return
+        with self._gate.forwarding(modes.allows_cmd_vel) as allowed:
+            if allowed:
+                self._send_move(v, now)
 
-    def _send(self, v: Velocity) -> None:
+    def _rest(self, why: str) -> None:
+        """Nothing to send: a StopMove if one is owed, and the limiter starts again from standstill."""
+        self._limiter.reset()
+        self._last_ack = None
+        if self._maybe_moving or self._stop_reason is not None:
+            self._stop_move(why)
+
+    def _send_move(self, v: Velocity, now: float) -> None:
+        self._last_send = now
         try:
             self._port.set_velocity(v.vx, v.vy, v.wz, self._move_duration_s)
         except RobotError as exc:
+            lost = exc.code == ERR_CLIENT_API_TIMEOUT  # sent, answer lost: it may be running
+            self._maybe_moving = self._maybe_moving or (lost and not v.is_zero())
+            self._limiter.reset()
+            self._last_ack = None
             self._events.count("rpc_failures")
-            self._events.log("error", "move_failed", f"Move failed: {exc}")
+            self._events.log("error", "move_failed", f"Move failed: {exc}; the ramp restarts from zero")
             return
+        self._limiter.commit(v)
+        self._last_ack = now
+        self._maybe_moving = not v.is_zero()
+        self._stop_reason = None
+        self._stop_attempts = 0
         self._events.count("moves_sent")
-        self._moving = not v.is_zero()
 
-    def _stop_move(self, why: str) -> None:
-        self._limiter.reset()
-        self._moving = False
+    def _stop_move(self, why: str) -> bool:
+        """Send StopMove (SetVelocity 0, 0, 0); True once it is settled (acknowledged, refused or given up)."""
+        if self._stop_reason is None:
+            self._stop_reason = why
+            self._stop_attempts = 0
+        self._stop_attempts += 1
+        self._last_send = self._clock()
         try:
             self._port.set_velocity(0.0, 0.0, 0.0, self._move_duration_s)
         except RobotError as exc:
             self._events.count("rpc_failures")
-            self._events.log("error", "stop_move_failed", f"StopMove ({why}) failed: {exc}")
-            return
-        self._events.count("stop_moves_sent")
-        self._events.log("info", "stop_move", f"StopMove sent: {why}")
+            if exc.code in (ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND) and self._stop_attempts < STOP_ATTEMPTS:
+                self._events.log("error", "stop_move_failed",
+                                 f"StopMove ({self._stop_reason}) failed: {exc}; sending it again")
+                return False
+            self._events.log("error", "stop_move_settled",
+                             f"StopMove ({self._stop_reason}) not acknowledged: {exc}; the robot stops by itself "
+                             f"within {self._move_duration_s} s of the last Move")
+        else:
+            self._events.count("stop_moves_sent")
+            self._events.log("info", "stop_move", f"StopMove acknowledged: {self._stop_reason}")
+        self._maybe_moving = False
+        self._stop_reason = None
+        self._stop_attempts = 0
+        return True

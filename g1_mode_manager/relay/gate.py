@@ -1,10 +1,14 @@
-"""What a relay asks before forwarding: the mode machine's predicates and the link's health."""
+"""What a relay asks before forwarding: the mode machine's predicates, its forward gate and the link's health."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from contextlib import AbstractContextManager
 from typing import Protocol
 
 from g1_mode_manager.core.modes import Mode
+
+LeaveListener = Callable[[Mode, Mode], None]
 
 
 class ModeGate(Protocol):
@@ -15,6 +19,12 @@ class ModeGate(Protocol):
     def allows_cmd_vel(self) -> bool: ...
     def allows_arm_commands(self) -> bool: ...
     def allows_low_level_commands(self) -> bool: ...
+
+    def forwarding(self, predicate: Callable[[Mode], bool]) -> AbstractContextManager[bool]:
+        """Held around one send: True iff it may pass; no mode change or e-stop starts meanwhile."""
+
+    def add_leave_listener(self, listener: LeaveListener) -> None:
+        """listener(source, target) runs after the gate closed, before the transition's first robot call."""
 
 
 class LinkMonitor(Protocol):

@@ -1,36 +1,52 @@
-"""~/lowcmd -> rt/lowcmd in LOW_LEVEL only; silence turns into damping frames (kp 0, kd > 0)."""
+"""~/lowcmd -> rt/lowcmd in LOW_LEVEL only; silence, link loss and leaving LOW_LEVEL turn into damping frames."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import threading
+import time
+from collections.abc import Callable, Sequence
 
+from g1_mode_manager.core import modes
 from g1_mode_manager.core.joint_commands import JointCommandError, damping_frame, full_frame, validate_lowcmd
+from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
+#: Damping frames written at once when LOW_LEVEL is left: more than one, so a lost frame does not leave
+#: the robot's motor drivers holding the last user frame (they hold whatever came last).
+EXIT_BURST = 3
+
 
 class LowCmdRelay:
-    """Each valid command is written at once (latest wins: no queue); `tick` damps on silence."""
+    """Each valid command is written at once (latest wins: no queue); `tick` damps on silence and link loss.
+
+    The gate check and the write are one step under the machine's forward gate, so no user frame
+    leaves after the mode left LOW_LEVEL or an e-stop began. On leaving LOW_LEVEL (``on_leave``)
+    damping frames go out before the next mode's first robot call, and for ``exit_damping_s`` more
+    when the robot stays in debug mode (IDLE), so the frame the drivers hold is a damping one.
+    """
 
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
-                 silence_timeout_s: float) -> None:
+                 silence_timeout_s: float, exit_damping_s: float = 0.2,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._port = port
         self._gate = gate
         self._link = link
         self._events = events
-        self._watchdog = Watchdog(silence_timeout_s)
+        self._watchdog = Watchdog(silence_timeout_s, clock)
+        self._exit_damping_s = exit_damping_s
+        self._clock = clock
+        self._damp_until = 0.0
+        self._lock = threading.Lock()
 
     def submit(self, names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau: Sequence[float],
                kp: Sequence[float], kd: Sequence[float]) -> str | None:
         """Forward one joint command; returns an error text if refused."""
         self._events.count("lowcmd_received")
         if not self._gate.allows_low_level_commands():
-            self._events.count("lowcmd_dropped")
-            self._events.log("warn", "lowcmd_dropped",
-                             f"lowcmd dropped: mode is {self._gate.mode.name}, joint commands pass only in LOW_LEVEL")
-            return f"mode is {self._gate.mode.name}"
+            return self._drop(f"mode is {self._gate.mode.name}")
         if not self._link.link_ok():
             self._events.count("lowcmd_dropped")
             self._events.log("error", "lowcmd_link", "lowcmd dropped: robot link lost")
@@ -41,15 +57,38 @@ class LowCmdRelay:
             self._events.count("lowcmd_rejected")
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
             return str(exc)
-        self._watchdog.feed()
-        return self._write(full_frame(targets), "lowcmd_sent")
+        frame = full_frame(targets)
+        with self._gate.forwarding(modes.allows_low_level_commands) as allowed:
+            if allowed:
+                self._watchdog.feed()
+                return self._write(frame, "lowcmd_sent")
+        return self._drop(f"mode is {self._gate.mode.name}")
+
+    def on_leave(self, source: Mode, target: Mode) -> None:
+        """Leave listener of the mode machine: damp before the next mode's first robot call."""
+        if source is not Mode.LOW_LEVEL:
+            return
+        self._watchdog.reset()
+        sent = sum(self._write(damping_frame(), "exit_damping_frames_sent") is None for _ in range(EXIT_BURST))
+        if target is Mode.IDLE:  # no robot step follows: the robot stays in debug mode, holding what came last
+            with self._lock:
+                self._damp_until = self._clock() + self._exit_damping_s
+        self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
 
     def tick(self, _dt_s: float) -> None:
-        if not self._gate.allows_low_level_commands():
-            self._watchdog.reset()
+        if self._gate.allows_low_level_commands():
+            if self._watchdog.expired() or not self._link.link_ok():
+                self._write(damping_frame(), "damping_frames_sent")
             return
-        if self._watchdog.expired() and self._link.link_ok():
-            self._write(damping_frame(), "damping_frames_sent")
+        with self._lock:
+            damping = self._clock() < self._damp_until
+        if damping and self._gate.mode is Mode.IDLE:
+            self._write(damping_frame(), "exit_damping_frames_sent")
+
+    def _drop(self, why: str) -> str:
+        self._events.count("lowcmd_dropped")
+        self._events.log("warn", "lowcmd_dropped", f"lowcmd dropped: {why}, joint commands pass only in LOW_LEVEL")
+        return why
 
     def _write(self, frame: list[MotorCommand], counter: str) -> str | None:
         try:

@@ -1,0 +1,23 @@
+"""Fixtures of the relay tests: collected logs, events without throttling, a settable clock."""
+
+from __future__ import annotations
+
+import pytest
+from relay_fakes import Clock
+
+from g1_mode_manager.relay.events import RelayEvents
+
+
+@pytest.fixture
+def logs() -> list[tuple[str, str]]:
+    return []
+
+
+@pytest.fixture
+def events(logs) -> RelayEvents:
+    return RelayEvents(lambda level, text: logs.append((level, text)), throttle_s=0.0)
+
+
+@pytest.fixture
+def clock() -> Clock:
+    return Clock()

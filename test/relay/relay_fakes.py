@@ -1,0 +1,59 @@
+"""Stand-ins the relay tests share: the mode machine's gate and a settable clock."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+from g1_mode_manager.core.modes import Mode
+
+
+class Gate:
+    """Stands in for the mode machine: predicates, the forward gate and leave listeners.
+
+    ``forward_refuses`` makes the forward gate say no although the predicates say yes: what a relay
+    sees when an e-stop begins between its check and its send.
+    """
+
+    def __init__(self, mode: Mode) -> None:
+        self.mode = mode
+        self.in_transition = False
+        self.forward_refuses = False
+        self.forwarded = 0
+        self.listeners: list[Callable[[Mode, Mode], None]] = []
+
+    def _is(self, mode: Mode) -> bool:
+        return self.mode is mode and not self.in_transition
+
+    def allows_cmd_vel(self) -> bool:
+        return self._is(Mode.HIGH_LEVEL)
+
+    def allows_arm_commands(self) -> bool:
+        return self._is(Mode.HIGH_LEVEL)
+
+    def allows_low_level_commands(self) -> bool:
+        return self._is(Mode.LOW_LEVEL)
+
+    @contextmanager
+    def forwarding(self, predicate: Callable[[Mode], bool]) -> Iterator[bool]:
+        ok = predicate(self.mode) and not self.in_transition and not self.forward_refuses
+        self.forwarded += ok
+        yield ok
+
+    def add_leave_listener(self, listener: Callable[[Mode, Mode], None]) -> None:
+        self.listeners.append(listener)
+
+    def leave(self, target: Mode) -> None:
+        """What the machine does on a mode change: close the gate, tell the listeners, change the mode."""
+        source, self.in_transition = self.mode, True
+        for listener in self.listeners:
+            listener(source, target)
+        self.mode, self.in_transition = target, False
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t

@@ -1,0 +1,228 @@
+"""The /cmd_vel relay against the fake robot port: gate, limiter on acknowledged Moves only, StopMove, dead band."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+
+import pytest
+from relay_fakes import Gate
+
+from fakes.fake_robot_port import FakeRobotPort
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.node.link import LinkHealth
+from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.relay.cmd_vel import STOP_ATTEMPTS, CmdVelRelay
+from support.mode_manager import wait_until
+
+LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)
+PERIOD = 0.05  # rate_hz 20: the limiter's largest dt
+STOP = (0.0, 0.0, 0.0, 1.0)
+
+
+def _relay(port, gate, events, clock, timeout_s=0.3, **kw) -> CmdVelRelay:
+    return CmdVelRelay(port, gate, LinkHealth(port, gate, 0.5), events, limits=LIMITS, timeout_s=timeout_s,
+                       move_duration_s=1.0, rate_hz=1.0 / PERIOD, clock=clock, **kw)
+
+
+def _moves(port) -> list[tuple]:
+    return [s.args for s in port.stream("set_velocity")]
+
+
+def _run(relay, clock, n, dt=PERIOD) -> None:
+    for _ in range(n):
+        clock.t += dt
+        relay.step()
+
+
+def test_dropped_outside_high_level_with_warning_naming_the_mode(events, logs, clock) -> None:
+    port = FakeRobotPort()
+    for mode in (Mode.UNINITIALIZED, Mode.IDLE, Mode.LOW_LEVEL, Mode.EMERGENCY):
+        relay = _relay(port, Gate(mode), events, clock)
+        assert relay.submit(0.5, 0.0, 0.0) is None
+        relay.step()
+    assert _moves(port) == []
+    assert events.counts()["cmd_vel_dropped"] == 4
+    assert ("warn", "cmd_vel dropped: mode is UNINITIALIZED, velocity commands pass only in HIGH_LEVEL") in logs
+
+
+def test_ramps_at_the_acceleration_limit_latest_wins_and_one_stop_move_on_silence(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
+    relay.submit(0.2, 0.0, 0.0)
+    relay.submit(0.8, 0.0, 0.0)  # latest wins: the 0.2 is never sent
+    relay.step()
+    _run(relay, clock, 3)
+    assert [m[0] for m in _moves(port)] == pytest.approx([0.05, 0.10, 0.15, 0.20])  # 1 m/s^2 * 0.05 s
+    assert all(m[3] == 1.0 for m in _moves(port))
+    clock.t += 1.0  # silence
+    _run(relay, clock, 5)
+    assert _moves(port)[4:] == [STOP]
+    assert events.counts()["stop_moves_sent"] == 1
+
+
+def test_refused_moves_do_not_advance_the_ramp(events, clock) -> None:
+    # In lock stand (fsm 4) the robot refuses Move: after `loco start` the first accepted Move must
+    # still be one acceleration step from standstill, not the 0.8 the ramp would have reached.
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock, timeout_s=10.0)
+    port.fail_stream["set_velocity"] = api_ids.ERR_REFUSED_IN_STATE
+    relay.submit(0.8, 0.0, 0.0)
+    _run(relay, clock, 40)
+    del port.fail_stream["set_velocity"]
+    _run(relay, clock, 1)
+    assert _moves(port)[-1][0] == pytest.approx(0.05)
+
+
+def test_a_stalled_sender_ramps_slower_never_jumps(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock, timeout_s=10.0)
+    relay.submit(0.8, 0.0, 0.0)
+    _run(relay, clock, 2)
+    _run(relay, clock, 1, dt=0.5)  # the thread was not scheduled for 0.5 s
+    vx = [m[0] for m in _moves(port)]
+    assert max(b - a for a, b in itertools.pairwise(vx)) <= LIMITS.max_ax * PERIOD + 1e-9
+
+
+def test_a_timed_out_move_counts_as_maybe_moving_and_gets_a_stop_move(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
+    port.fail_stream["set_velocity"] = api_ids.ERR_CLIENT_API_TIMEOUT  # sent, executed, answer lost
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    del port.fail_stream["set_velocity"]
+    clock.t += 1.0
+    relay.step()
+    assert _moves(port)[-1] == STOP
+
+
+def test_stop_move_is_repeated_until_acknowledged(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    port.fail_stream["set_velocity"] = api_ids.ERR_CLIENT_API_TIMEOUT
+    clock.t += 1.0
+    _run(relay, clock, 2)
+    del port.fail_stream["set_velocity"]
+    _run(relay, clock, 5)
+    assert _moves(port)[1:] == [STOP] * 3  # two lost, the third acknowledged, then nothing more
+
+
+def test_stop_move_retries_are_bounded(events, logs, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    port.fail_stream["set_velocity"] = api_ids.ERR_CLIENT_API_TIMEOUT
+    clock.t += 1.0
+    _run(relay, clock, 3 * STOP_ATTEMPTS)
+    assert _moves(port)[1:] == [STOP] * STOP_ATTEMPTS
+    assert any("stops by itself" in text for _, text in logs)
+
+
+def test_stops_when_mode_leaves_high_level_or_link_is_lost(events, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    gate.in_transition = True  # a transition away has started
+    _run(relay, clock, 2)
+    assert _moves(port)[1:] == [STOP]
+    gate.in_transition = False
+    relay.submit(0.5, 0.0, 0.0)
+    _run(relay, clock, 1)
+    port.lowstate_age = 5.0  # link lost
+    _run(relay, clock, 1)
+    assert _moves(port)[-1] == STOP
+
+
+def test_a_closed_forward_gate_sends_no_move(events, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    gate.forward_refuses = True  # an e-stop began between the check and the send
+    relay.step()
+    assert _moves(port) == []
+
+
+def test_sub_dead_band_commands_are_not_sent_forever(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock, timeout_s=100.0)
+    for _ in range(40):  # a teleop publishing a creep the robot ignores
+        relay.submit(0.05, 0.0, 0.05)
+        _run(relay, clock, 1)
+    assert _moves(port) == []
+    relay.submit(0.3, 0.0, 0.0)
+    _run(relay, clock, 6)
+    for _ in range(40):  # then zero, still published: one StopMove, then silence on the RPC
+        relay.submit(0.0, 0.0, 0.0)
+        _run(relay, clock, 1)
+    moves = _moves(port)
+    assert moves[-1] == STOP and moves.count(STOP) == 1
+    top = max(range(len(moves)), key=lambda i: moves[i][0])
+    assert all(m[0] >= 0.1 for m in moves[top:-1])  # slowing down: the last sub-band steps became the StopMove
+
+
+def test_shutdown_sends_stop_move_while_moving(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    relay.stop()
+    assert _moves(port)[-1] == STOP
+
+
+@pytest.mark.parametrize("duration", [0.0, 2.5, 864000.0, math.inf, math.nan])
+def test_move_lease_longer_than_two_seconds_is_refused(events, clock, duration) -> None:
+    port = FakeRobotPort()
+    with pytest.raises(ValueError, match="move duration"):
+        CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
+                    limits=LIMITS, timeout_s=0.5, move_duration_s=duration)
+
+
+def test_nan_sends_zero_and_huge_is_clamped(events, logs, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock, timeout_s=100.0)
+    assert relay.submit(math.nan, 0.0, 0.0).rejected
+    relay.step()
+    assert _moves(port) == []  # zero while standing: nothing to send
+    assert relay.submit(1e9, -1e9, math.inf).rejected
+    assert relay.submit(1e9, -1e9, 5.0).clamped
+    _run(relay, clock, 30)
+    assert _moves(port)[-1][:3] == pytest.approx((0.8, -0.4, 1.0))
+    counts = events.counts()
+    assert counts["cmd_vel_rejected"] == 2 and counts["cmd_vel_clamped"] == 1
+    assert any("non-finite" in text for _, text in logs)
+
+
+def test_sender_thread_sends_on_arrival_without_waiting_for_a_tick(events) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, time.monotonic, timeout_s=100.0)
+    relay._period_s = 1000.0  # no keep-alive tick in this test: only an arrival can send
+    relay.start()
+    try:
+        relay.submit(0.5, 0.0, 0.0)
+        assert wait_until(lambda: len(_moves(port)) == 1, 5.0)
+    finally:
+        relay.stop()
+
+
+def test_sender_thread_caps_the_move_rate(events) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, time.monotonic, timeout_s=100.0, max_rate_hz=20.0)
+    relay.start()
+    try:
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 0.5:  # a 1 kHz publisher
+            relay.submit(0.5, 0.0, 0.0)
+            time.sleep(0.001)
+        elapsed = time.monotonic() - t0
+    finally:
+        relay.stop()
+    moves = [m for m in _moves(port) if m != STOP]
+    assert 1 <= len(moves) <= elapsed * 20.0 + 2

@@ -1,0 +1,116 @@
+"""The lowcmd relay against the fake robot port: LOW_LEVEL only, damping on silence, link loss and exit."""
+
+from __future__ import annotations
+
+from relay_fakes import Gate
+
+from fakes.fake_robot_port import FakeRobotPort
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import SportState
+from g1_mode_manager.node.link import LinkHealth
+from g1_mode_manager.protocol.motors import DAMPING_KD, JOINT_INDEX
+from g1_mode_manager.relay.lowcmd import EXIT_BURST, LowCmdRelay
+
+KNEE = ["left_knee_joint"], [0.5], [], [], [100.0], [1.0]
+
+
+def _relay(port, gate, events, clock) -> LowCmdRelay:
+    return LowCmdRelay(port, gate, LinkHealth(port, gate, 0.5), events, silence_timeout_s=0.1,
+                       exit_damping_s=0.2, clock=clock)
+
+
+def _is_damping(frame) -> bool:
+    return all(c.kp == 0.0 and c.kd == DAMPING_KD and c.tau == 0.0 for c in frame)
+
+
+def _frames(port) -> list:
+    return [s.args[0] for s in port.stream("write_lowcmd")]
+
+
+def test_only_in_low_level_and_damps_on_silence(events, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    assert relay.submit(*KNEE) == "mode is HIGH_LEVEL"
+    relay.tick(0.02)
+    assert _frames(port) == []
+    gate.mode = Mode.LOW_LEVEL
+    assert relay.submit(*KNEE) is None
+    assert _frames(port)[-1][JOINT_INDEX["left_knee_joint"]].kp == 100.0
+    relay.tick(0.02)  # fresh: no damping frame
+    assert len(_frames(port)) == 1
+    clock.t += 1.0
+    relay.tick(0.02)
+    assert _is_damping(_frames(port)[-1])
+    assert "gains" in relay.submit(["left_knee_joint"], [0.5], [], [], [-1.0], [1.0])
+
+
+def test_link_loss_in_low_level_sends_damping_frames(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.LOW_LEVEL), events, clock)
+    assert relay.submit(*KNEE) is None
+    port.lowstate_age = 5.0
+    port.sport = SportState(0, 0, 0, 0.0, age_s=5.0)
+    relay.tick(0.02)  # the stream is fresh, but the robot cannot be watched: damp
+    assert _is_damping(_frames(port)[-1])
+    assert relay.submit(*KNEE) == "robot link lost"
+
+
+def test_leaving_low_level_damps_before_the_next_mode_and_idle_keeps_damping_a_while(events, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.LOW_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    gate.add_leave_listener(relay.on_leave)
+    relay.submit(*KNEE)
+    gate.leave(Mode.IDLE)
+    frames = _frames(port)
+    assert len(frames) == 1 + EXIT_BURST and all(_is_damping(f) for f in frames[1:])
+    relay.tick(0.02)
+    assert len(_frames(port)) == 2 + EXIT_BURST and _is_damping(_frames(port)[-1])
+    clock.t += 0.3
+    relay.tick(0.02)
+    assert len(_frames(port)) == 2 + EXIT_BURST  # then the robot holds the damping frame
+    assert relay.submit(*KNEE) == "mode is IDLE"
+
+
+def test_an_estop_from_low_level_damps_at_once_and_then_stops_writing(events, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.LOW_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    gate.add_leave_listener(relay.on_leave)
+    relay.submit(*KNEE)
+    gate.leave(Mode.EMERGENCY)
+    relay.tick(0.02)
+    frames = _frames(port)
+    assert len(frames) == 1 + EXIT_BURST and _is_damping(frames[-1])  # the service is re-selected next
+
+
+def test_a_closed_forward_gate_writes_no_user_frame(events, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.LOW_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    gate.forward_refuses = True  # an e-stop began between the check and the write
+    assert relay.submit(*KNEE) == "mode is LOW_LEVEL"
+    assert _frames(port) == []
+
+
+def test_before_lowstate_is_refused_not_crashing(events, clock) -> None:
+    port = FakeRobotPort()
+    port.lowstate_age = None
+    relay = _relay(port, Gate(Mode.LOW_LEVEL), events, clock)
+    assert relay.submit(*KNEE) == "robot link lost"
+    relay.tick(0.02)  # damping cannot be written without mode_machine: counted, no crash
+    assert _frames(port) == [] and events.counts()["lowcmd_write_failures"] == 1
+
+
+def test_link_health_needs_sportmodestate_in_high_level() -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    link = LinkHealth(port, gate, 0.5)
+    assert link.link_ok()
+    port.sport = SportState(4, 0, 0, 0.0, age_s=2.0)
+    assert not link.link_ok() and "sportmodestate" in link.report().reason
+    gate.mode = Mode.LOW_LEVEL
+    assert link.link_ok()
+    gate.mode = Mode.UNINITIALIZED
+    assert not link.report().connected
