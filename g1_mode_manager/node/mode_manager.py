@@ -87,11 +87,16 @@ class ModeManagerNode(Node):
 
         limits = VelocityLimits(s.max_vx, s.max_vy, s.max_wz, s.max_ax, s.max_ay, s.max_aw)
         self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=limits,
-                                    timeout_s=s.cmd_vel_timeout, move_duration_s=s.move_duration_s)
+                                    timeout_s=s.cmd_vel_timeout, move_duration_s=s.move_duration_s,
+                                    rate_hz=s.cmd_vel_rate_hz, max_rate_hz=s.cmd_vel_max_rate_hz,
+                                    on_error=self._worker_error)
         self._arm = ArmRelay(self._port, self.machine, self._link, self._events, ramp_time_s=s.arm_ramp_time_s,
-                             silence_timeout_s=s.arm_cmd_timeout_s, kp=s.arm_kp, kd=s.arm_kd)
+                             silence_timeout_s=s.arm_cmd_timeout_s, kp=s.arm_kp, kd=s.arm_kd,
+                             period_s=1.0 / s.arm_rate_hz)
         self._lowcmd = LowCmdRelay(self._port, self.machine, self._link, self._events,
-                                   silence_timeout_s=s.lowcmd_timeout_s)
+                                   silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s)
+        for relay in (self._lowcmd, self._arm, self._cmd_vel):  # lowcmd first: its damping frames are the urgent ones
+            self.machine.add_leave_listener(relay.on_leave)
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10)
         self.create_subscription(JointState, "~/arm_cmd", self._on_arm_cmd, 10)
         self.create_subscription(JointCommand, "~/lowcmd", self._on_lowcmd, 10)
@@ -100,7 +105,7 @@ class ModeManagerNode(Node):
         self.create_timer(1.0 / s.diagnostics_rate_hz, self._publish_diagnostics)
 
         self._workers = [
-            PeriodicWorker("cmd_vel_relay", s.cmd_vel_rate_hz, self._cmd_vel.tick, self._worker_error),
+            self._cmd_vel,  # its own sender thread: sends on arrival, keeps Moves alive at cmd_vel_rate_hz
             PeriodicWorker("arm_relay", s.arm_rate_hz, self._arm.tick, self._worker_error),
             PeriodicWorker("lowcmd_relay", s.lowcmd_damping_rate_hz, self._lowcmd.tick, self._worker_error),
         ]
@@ -116,9 +121,11 @@ class ModeManagerNode(Node):
 
     # --- lifecycle -----------------------------------------------------------------------------
     def shutdown(self) -> None:
-        """Stop relays and the e-stop executor, close the robot port. Call before destroy_node()."""
+        """Hand the robot back safely (arms ramped out, StopMove), stop relays and the e-stop executor, close
+        the robot port. Call before destroy_node()."""
+        self._arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
         for worker in self._workers:
-            worker.stop()
+            worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
         self._service_side.shutdown()
         self._estop.shutdown()
         if self._mirroring:

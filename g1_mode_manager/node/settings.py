@@ -7,7 +7,7 @@ from dataclasses import dataclass, fields
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
 
-from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
 
 
 @dataclass(frozen=True)
@@ -19,6 +19,7 @@ class Settings:
     release_timeout_s: float = 5.0
     cmd_vel_timeout: float = 0.5
     cmd_vel_rate_hz: float = 20.0
+    cmd_vel_max_rate_hz: float = 50.0
     move_duration_s: float = 1.0
     max_vx: float = VelocityLimits.max_vx
     max_vy: float = VelocityLimits.max_vy
@@ -33,6 +34,7 @@ class Settings:
     arm_kd: float = 1.5
     lowcmd_timeout_s: float = 0.1
     lowcmd_damping_rate_hz: float = 50.0
+    lowcmd_exit_damping_s: float = 0.2
     link_timeout_s: float = 0.5
     mode_publish_rate_hz: float = 1.0
     diagnostics_rate_hz: float = 1.0
@@ -47,8 +49,10 @@ _DESCRIPTIONS: dict[str, str] = {
     "select_timeout_s": "How long SelectMode('ai') plus its confirmation may take, s (a real robot takes seconds).",
     "release_timeout_s": "How long ReleaseMode may take until CheckMode reports no service, s.",
     "cmd_vel_timeout": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
-    "cmd_vel_rate_hz": "Rate at which the latest /cmd_vel is sent as Move, Hz.",
-    "move_duration_s": "Duration of each Move: the robot stops by itself if no newer Move arrives, s.",
+    "cmd_vel_rate_hz": "Keep-alive rate of a running Move and of the watchdog, Hz (a new /cmd_vel is sent at once).",
+    "cmd_vel_max_rate_hz": "At most this many Moves per second reach the robot, whatever the /cmd_vel rate, Hz.",
+    "move_duration_s": "Lease of each Move (at most 2 s): the robot stops by itself if no newer Move arrives, s. "
+    "The real robot ignores velocities below about 0.1; such commands are sent as one StopMove.",
     "max_vx": "Clamp of forward velocity, m/s.",
     "max_vy": "Clamp of lateral velocity, m/s.",
     "max_wz": "Clamp of yaw rate, rad/s.",
@@ -61,18 +65,25 @@ _DESCRIPTIONS: dict[str, str] = {
     "arm_kp": "Stiffness of arm_sdk targets, N m/rad.",
     "arm_kd": "Damping of arm_sdk targets, N m s/rad.",
     "lowcmd_timeout_s": "No ~/lowcmd for this long in LOW_LEVEL sends damping frames (kp 0, kd > 0), s.",
-    "lowcmd_damping_rate_hz": "Rate of damping frames while ~/lowcmd is silent in LOW_LEVEL, Hz.",
+    "lowcmd_damping_rate_hz": "Rate of damping frames while ~/lowcmd is silent (or the link lost) in LOW_LEVEL, Hz.",
+    "lowcmd_exit_damping_s": "After LOW_LEVEL -> IDLE, damping frames go on this long (the robot holds the last frame), s.",
     "link_timeout_s": "rt/lowstate (and in HIGH_LEVEL rt/sportmodestate) older than this = link lost, s.",
     "mode_publish_rate_hz": "Rate at which ~/mode is re-published besides every change, Hz.",
     "diagnostics_rate_hz": "Rate of /diagnostics, Hz.",
     "estop_retries": "How often one e-stop request repeats a sequence that did not end with an acknowledged Damp.",
 }
 
+#: Float ranges other than the default (1e-3, 1e6).
+_RANGES: dict[str, tuple[float, float]] = {
+    "move_duration_s": (0.1, MAX_MOVE_DURATION_S),  # continuous Moves (864000 s) would outlive a dead node
+}
+
 
 def _descriptor(name: str, default: object) -> ParameterDescriptor:
     desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=True)
     if isinstance(default, float):
-        desc.floating_point_range = [FloatingPointRange(from_value=1e-3, to_value=1e6)]
+        low, high = _RANGES.get(name, (1e-3, 1e6))
+        desc.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
     elif name == "dds_domain":
         desc.integer_range = [IntegerRange(from_value=0, to_value=230, step=1)]
     elif isinstance(default, int):
