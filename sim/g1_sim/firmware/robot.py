@@ -47,6 +47,7 @@ from g1_sim.physics.controllers import (
     LowLevelController,
     PostureHarness,
     Sensed,
+    StanceController,
     StandUpSequence,
     ZeroTorqueController,
 )
@@ -117,7 +118,9 @@ class SimG1:
         self._arm = ArmSdkBlend()
         self._squat = PostureHarness(self._g1, SQUAT_POSE, float(standing_qpos(self._g1.model, SQUAT_POSE)[2]))
         self._sit = PostureHarness(self._g1, SIT_POSE, float(standing_qpos(self._g1.model, SIT_POSE)[2]))
-        self._stand_up = StandUpSequence(self._g1, self._loco, float(self._g1.model.key_qpos[self._g1.stand_key][2]))
+        self._stance = StanceController(self._g1)
+        self._stand_up = StandUpSequence(self._g1, self._stance, float(self._g1.model.key_qpos[self._g1.stand_key][2]),
+                                         kp=policy.kp * 2.0, kd=policy.kd * 2.0)
         self._ctrl: Controller = self._zero
 
         self._service = ""
@@ -149,7 +152,7 @@ class SimG1:
             self._switch(self._zero if fsm == FsmId.ZERO_TORQUE else self._damp)
         elif fsm == FsmId.STAND_UP:
             self._fsm = fsm
-            self._switch(self._loco)  # the keyframe already stands in the policy's default pose
+            self._switch(self._stance)  # the keyframe already stands in the default pose
         else:
             raise ValueError(f"boot fsm must be 0, 1 or 4, not {fsm}")
 
@@ -192,8 +195,8 @@ class SimG1:
             self._ctrl = ctrl
 
     def _balanced(self) -> bool:
-        """The policy is in charge (lock stand or walking, stand-up motion finished)."""
-        return self._ctrl is self._loco or (self._ctrl is self._stand_up and self._stand_up.done)
+        """The built-in controller stands or walks on its own (lock stand or policy, stand-up finished)."""
+        return self._ctrl in (self._loco, self._stance) or (self._ctrl is self._stand_up and self._stand_up.done)
 
     def _transition_running(self) -> bool:
         if self._ctrl is self._stand_up:
@@ -257,8 +260,12 @@ class SimG1:
             self._switch(self._squat)
         elif fsm == FsmId.SIT:
             self._switch(self._sit)
+        elif fsm in WALKING_FSM_IDS:  # only ever entered from a balanced stand (rules)
+            self._switch(self._loco)
         elif not was_balanced:  # stand-up ids from damp / squat / sit
             self._switch(self._stand_up)
+        else:  # stand-up ids from walking or another stand: lock stand where the feet are
+            self._switch(self._stance)
         self._loco.command[:] = 0.0
         self._fsm_mode = int(FsmMode.DYNAMIC if self._transition_running() else FsmMode.STATIC)
 

@@ -121,6 +121,93 @@ class LocomotionController:
         pass
 
 
+#: Lock-stand gains by motor (N m/rad, N m s/rad): stiff legs and waist, arms firm, wrists soft.
+_STANCE_LEG_KP: Final = (350.0, 350.0, 250.0, 450.0, 500.0, 300.0)
+_STANCE_LEG_KD: Final = (8.0, 8.0, 6.0, 10.0, 10.0, 6.0)
+_STANCE_ARM_KP: Final = (80.0, 80.0, 80.0, 80.0, 20.0, 20.0, 20.0)
+_STANCE_ARM_KD: Final = (2.0, 2.0, 2.0, 2.0, 1.0, 1.0, 1.0)
+STANCE_KP: Final = np.array((*_STANCE_LEG_KP, *_STANCE_LEG_KP, 300.0, 300.0, 300.0, *_STANCE_ARM_KP, *_STANCE_ARM_KP))
+STANCE_KD: Final = np.array((*_STANCE_LEG_KD, *_STANCE_LEG_KD, 6.0, 6.0, 6.0, *_STANCE_ARM_KD, *_STANCE_ARM_KD))
+
+
+class StanceController:
+    """Lock stand (fsm 4, and 702/706 once up): a stiff joint-position hold, as the robot's lock stand is.
+
+    The legs keep the pose they had when the stance took over (feet stay where they are, no stepping),
+    shifted along the knee-bend family of :class:`~g1_sim.physics.model.StandPoses` to the requested
+    pelvis height; waist and arms go to the default pose. Targets move at most ``rate`` rad/s, so a
+    height change or a takeover from walking is smooth. A slow integral term on legs and waist removes
+    the static error gravity leaves under PD, so the pelvis does not sag. Torques are clipped to the G1
+    effort limits.
+
+    Balance (what a plain PD hold lacks when arm_sdk swings the upper body): the centre of mass is kept
+    over the feet by leaning both legs about the ankles (ankle pitch/roll one way, hip pitch/roll the
+    other, so pelvis and feet keep their orientation), an integrator on the horizontal error. Tuned with
+    ``bench/arm_balance.py``: without it, arms raised forward at arm_sdk's kp 60 bend the waist and the
+    robot tips over its toes.
+    """
+
+    def __init__(self, g1: G1Model, *, kp: np.ndarray = STANCE_KP, kd: np.ndarray = STANCE_KD,
+                 rate: float = 0.5, integral_per_s: float = 1.0, integral_share: float = 0.3,
+                 com_gain: float = 2.0, lean_limit: float = 0.25, lead_s: float = 0.8) -> None:
+        self.poses = g1.stand_poses
+        self.kp = kp
+        self.kd = kd
+        self.rate = rate
+        self.height = self.poses.default_height
+        self._reference = self.poses.pose(self.poses.default_height)
+        self._captured = DEFAULT_POSE.copy()
+        self.q_des = DEFAULT_POSE.copy()
+        self._zeros = np.zeros(NUM_JOINTS)
+        self._ki = np.where(np.arange(NUM_JOINTS) < ARM0 + 3, integral_per_s * kp, 0.0)
+        self._i_limit = integral_share * EFFORT_LIMIT
+        self._i_term = np.zeros(NUM_JOINTS)
+        self.com_gain = com_gain
+        self.lead_s = lead_s
+        self.lean_limit = lean_limit
+        self.lean = np.zeros(2)  # (forward, sideways) lean of the legs about the ankles, rad
+        self._feet = [g1.model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
+        self._pelvis = g1.pelvis_body
+
+    def reset(self, s: Sensed) -> None:
+        self._captured = s.q.copy()
+        self._captured[12:] = DEFAULT_POSE[12:]
+        self.q_des = s.q.copy()
+        self._i_term[:] = 0.0
+        self.lean[:] = 0.0
+
+    def com_error(self, s: Sensed) -> np.ndarray:
+        """Centre of mass, led by its velocity (``lead_s``; damps the servo), minus its place over the feet,
+        m, in the pelvis heading frame (forward, left)."""
+        d = s.data
+        mujoco.mj_subtreeVel(s.g1.model, d)
+        com = d.subtree_com[self._pelvis][:2] + self.lead_s * d.subtree_linvel[self._pelvis][:2]
+        err = com - 0.5 * (d.xpos[self._feet[0]][:2] + d.xpos[self._feet[1]][:2])
+        heading = d.xmat[self._pelvis].reshape(3, 3)[:2, 0]
+        c, si = heading / max(float(np.linalg.norm(heading)), 1e-9)
+        return np.array([c * err[0] + si * err[1] - self.poses.com_ahead, -si * err[0] + c * err[1]])
+
+    def goal(self) -> np.ndarray:
+        """The pose being held once the targets arrive: captured legs bent to :attr:`height`."""
+        return self._captured + (self.poses.pose(self.height) - self._reference)
+
+    def torques(self, s: Sensed) -> np.ndarray:
+        step = self.rate * TIMESTEP_S
+        self.q_des += np.clip(self.goal() - self.q_des, -step, step)
+        self.lean = np.clip(self.lean + self.com_gain * self.com_error(s) * TIMESTEP_S * (1.0, -1.0),
+                            -self.lean_limit, self.lean_limit)
+        q_des = self.q_des.copy()
+        q_des[[4, 10]] += self.lean[0]  # ankle pitch +: the legs lean back, the pelvis moves back
+        q_des[[0, 6]] -= self.lean[0]
+        q_des[[5, 11]] += self.lean[1]  # ankle roll +: the pelvis moves left
+        q_des[[1, 7]] -= self.lean[1]
+        self._i_term = np.clip(self._i_term + self._ki * (q_des - s.q) * TIMESTEP_S, -self._i_limit, self._i_limit)
+        return pd(q_des, self._zeros, self._i_term, self.kp, self.kd, s.q, s.dq)
+
+    def release(self, s: Sensed) -> None:
+        pass
+
+
 def _smoothstep(x: float) -> float:
     x = min(max(x, 0.0), 1.0)
     return x * x * (3.0 - 2.0 * x)
@@ -202,40 +289,40 @@ class PostureHarness:
 
 class StandUpSequence:
     """fsm 4 (and 702/706) from damp, squat or sit: harness up to the standing pose, then hand over to
-    the policy (zero command) while the harness fades out. ``done`` once the policy stands alone."""
+    ``then`` (the lock-stand hold) while the harness fades out. ``done`` once ``then`` stands alone."""
 
-    def __init__(self, g1: G1Model, locomotion: LocomotionController, stand_height: float, *,
-                 ramp_s: float = 2.0, hold_s: float = 0.5, fade_s: float = 0.6) -> None:
-        self.harness = PostureHarness(g1, DEFAULT_POSE, stand_height, ramp_s=ramp_s,
-                                      kp=locomotion.policy.kp * 2.0, kd=locomotion.policy.kd * 2.0)
-        self.locomotion = locomotion
+    def __init__(self, g1: G1Model, then: Controller, stand_height: float, *, ramp_s: float = 2.0,
+                 hold_s: float = 0.5, fade_s: float = 0.6, kp: np.ndarray | float = 120.0,
+                 kd: np.ndarray | float = 6.0) -> None:
+        self.harness = PostureHarness(g1, DEFAULT_POSE, stand_height, ramp_s=ramp_s, kp=kp, kd=kd)
+        self.then = then
         self.hold_s = hold_s
         self.fade_s = fade_s
         self.done = False
-        self._t_policy = 0.0
-        self._on_policy = False
+        self._t_then = 0.0
+        self._on_then = False
 
     def reset(self, s: Sensed) -> None:
         self.harness.reset(s)
         self.done = False
-        self._on_policy = False
+        self._on_then = False
 
     def torques(self, s: Sensed) -> np.ndarray:
-        if not self._on_policy:
+        if not self._on_then:
             tau = self.harness.torques(s)
             if self.harness.elapsed >= self.harness.ramp_s + self.hold_s:
-                self._on_policy = True
-                self._t_policy = s.time
-                self.locomotion.reset(s)
+                self._on_then = True
+                self._t_then = s.time
+                self.then.reset(s)
             return tau
-        fade = 1.0 - (s.time - self._t_policy) / self.fade_s
+        fade = 1.0 - (s.time - self._t_then) / self.fade_s
         if fade > 0.0:
             self.harness.support = fade
             self.harness.apply_harness(s, 1.0)
         elif not self.done:
             self.harness.release(s)
             self.done = True
-        return self.locomotion.torques(s)
+        return self.then.torques(s)
 
     def release(self, s: Sensed) -> None:
         self.harness.release(s)

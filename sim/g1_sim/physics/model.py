@@ -37,6 +37,7 @@ class G1Model:
     gyro_adr: int
     accel_adr: int
     stand_key: int
+    stand_poses: StandPoses
 
     def reset(self, data: mujoco.MjData) -> None:
         """Put the robot in the standing keyframe (policy default pose, feet on the floor)."""
@@ -115,4 +116,64 @@ def build_model(root: str | Path | None = None) -> G1Model:
         gyro_adr=int(model.sensor(PELVIS_GYRO).adr[0]),
         accel_adr=int(model.sensor(PELVIS_ACCEL).adr[0]),
         stand_key=key,
+        stand_poses=StandPoses(model),
     )
+
+
+#: Leg pitch joints (hip, knee, ankle) of both legs, motor order.
+_PITCH_CHAINS: Final = ((0, 3, 4), (6, 9, 10))
+#: Pelvis heights lock stand can reach by bending the knees, m (straight legs ~0.79, deep squat below 0.6).
+STAND_HEIGHT_RANGE_M: Final = (0.60, 0.78)
+
+
+def knee_bent_pose(knee: float, hip_share: float, base: np.ndarray = DEFAULT_POSE) -> np.ndarray:
+    """``base`` with both knees at ``knee``; the hips take ``hip_share`` of the bend and the ankles the rest,
+    so hip + knee + ankle pitch keep their sum (feet stay parallel to the pelvis)."""
+    pose = base.copy()
+    for hip, kn, ankle in _PITCH_CHAINS:
+        total = base[hip] + base[kn] + base[ankle]
+        pose[kn] = knee
+        pose[hip] = -hip_share * knee
+        pose[ankle] = total - pose[hip] - knee
+    return pose
+
+
+class StandPoses:
+    """Standing poses by pelvis height: knees bent further for lower, the hip/ankle split chosen so the
+    centre of mass keeps its place over the feet (as in the default pose). Tabulated once per model."""
+
+    def __init__(self, model: mujoco.MjModel, knees: np.ndarray | None = None) -> None:
+        data = mujoco.MjData(model)
+        feet = [model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
+        pelvis = model.body(PELVIS_BODY).id
+
+        def com_ahead(pose: np.ndarray) -> tuple[float, float]:
+            data.qpos[:] = standing_qpos(model, pose)
+            mujoco.mj_forward(model, data)
+            mid = 0.5 * (data.xpos[feet[0]] + data.xpos[feet[1]])
+            return float(data.subtree_com[pelvis][0] - mid[0]), float(data.qpos[2])
+
+        default_share = -DEFAULT_POSE[0] / DEFAULT_POSE[3]
+        target, self.default_height = com_ahead(DEFAULT_POSE)
+        #: How far the centre of mass stands ahead of the mid-point of the ankles, m.
+        self.com_ahead = target
+        knees = np.linspace(0.1, 2.1, 21) if knees is None else knees
+        shares, heights = [], []
+        for k in knees:
+            lo, hi = 0.2, 0.8  # com_ahead falls as the hip share grows: bisect for the default's offset
+            for _ in range(20):
+                mid_share = 0.5 * (lo + hi)
+                lo, hi = (mid_share, hi) if com_ahead(knee_bent_pose(k, mid_share))[0] > target else (lo, mid_share)
+            shares.append(0.5 * (lo + hi))
+            heights.append(com_ahead(knee_bent_pose(k, shares[-1]))[1])
+        order = np.argsort(heights)
+        self._heights = np.asarray(heights)[order]
+        self._knees = np.asarray(knees)[order]
+        self._shares = np.asarray(shares)[order]
+        self.default_share = float(default_share)
+
+    def pose(self, height: float) -> np.ndarray:
+        """The standing pose whose pelvis stands at ``height`` m (clamped to :data:`STAND_HEIGHT_RANGE_M`)."""
+        h = float(np.clip(height, *STAND_HEIGHT_RANGE_M))
+        knee = float(np.interp(h, self._heights, self._knees))
+        return knee_bent_pose(knee, float(np.interp(h, self._heights, self._shares)))
