@@ -181,6 +181,7 @@ class SimG1:
             with self._lock:
                 if self._steps % self._decimation == 0:
                     self._tick()
+                self._loco.arm_weight = self._arm.weight
                 tau = self._ctrl.torques(self._s)
                 if self._arm.weight > 0.0 and self._balanced():
                     tau = self._arm.blend(tau, self._s)

@@ -18,6 +18,8 @@ from g1_sim.physics.model import DEFAULT_POSE, EFFORT_LIMIT, QPOS0, QVEL0, TIMES
 from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
 
 ARM0: Final = ARM_SDK_JOINTS[0]
+#: First arm motor (left shoulder pitch); arm_sdk also drives the three waist motors before it.
+ARM_SDK_FIRST_ARM_JOINT: Final = ARM0 + 3
 N_ARM: Final = len(ARM_SDK_JOINTS)
 GRAVITY: Final = 9.81
 
@@ -94,6 +96,12 @@ class LocomotionController:
 
     ``command`` is (vx, vy, wz) in the body frame; zero means stand still. ``step_in_place`` keeps the
     gait running at zero command (continuous gait).
+
+    While rt/arm_sdk drives the upper body (``arm_weight`` > 0), the policy is shown the arm and waist-yaw
+    positions it was trained on, its own targets, instead of the measured ones: poses it never saw made
+    it stumble and fall (``bench/arm_balance.py``: 62 % of the grid fell, 27 % with this). Waist roll
+    and pitch stay measured (hiding them too made it worse: they tilt the torso, which the policy must
+    know). The blend follows the weight, so ramps stay smooth.
     """
 
     def __init__(self, policy: LocomotionPolicy) -> None:
@@ -102,17 +110,25 @@ class LocomotionController:
         self.command = np.zeros(3)
         self.step_in_place = False
         self.targets = DEFAULT_POSE.copy()
+        self.arm_weight = 0.0
+        self.masked = np.r_[ARM0, ARM_SDK_FIRST_ARM_JOINT:NUM_JOINTS]  # waist yaw and both arms
         self._zeros = np.zeros(NUM_JOINTS)
         self._count = 0
 
     def reset(self, s: Sensed) -> None:
         self.policy.reset()
         self.command[:] = 0.0
+        self.targets = DEFAULT_POSE.copy()
         self._count = 0
 
     def torques(self, s: Sensed) -> np.ndarray:
         if self._count % self.decimation == 0:
-            self.targets = self.policy.act(s.q, s.dq, s.quat, s.ang_vel_body, self.command,
+            q, dq = s.q, s.dq
+            if self.arm_weight > 0.0:
+                q, dq, w, m = q.copy(), dq.copy(), self.arm_weight, self.masked
+                q[m] += w * (self.targets[m] - q[m])
+                dq[m] *= 1.0 - w
+            self.targets = self.policy.act(q, dq, s.quat, s.ang_vel_body, self.command,
                                            step_in_place=self.step_in_place)
         self._count += 1
         return pd(self.targets, self._zeros, self._zeros, self.policy.kp, self.policy.kd, s.q, s.dq)
