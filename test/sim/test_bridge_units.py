@@ -106,7 +106,7 @@ class StandIn:
 def test_faults_parse_all_keys() -> None:
     c = parse_faults('{"delay_s": {"1002": 5.0}, "drop": [7101], "error": {"7101": 3104}, '
                      '"pause_state": true, "damp_fails": 2}')  # fmt: skip
-    assert c.delay_s == {1002: 5.0}
+    assert c.delay_s == {1002: (5.0, 5.0)}
     assert c.drop == {7101}
     assert c.error == {7101: 3104}
     assert c.pause_state and c.damp_fails == 2
@@ -117,13 +117,24 @@ def test_faults_parse_all_keys() -> None:
     "text",
     ["{", "[]", '{"dely_s": {}}', '{"delay_s": {"x": 1}}', '{"delay_s": {"1002": -1}}', '{"drop": 7101}',
      '{"error": {"7101": 0}}', '{"error": {"7101": 1.5}}', '{"pause_state": 1}', '{"damp_fails": -1}',
-     '{"damp_fails": true}', '{"drop": [true]}'],
+     '{"damp_fails": true}', '{"drop": [true]}', '{"delay_s": {"1003": [2, 1]}}', '{"delay_s": {"1003": [1]}}',
+     '{"seed": "x"}'],
 )  # fmt: skip
 def test_faults_invalid_is_refused_and_previous_kept(text: str) -> None:
     faults = Faults(parse_faults('{"drop": [1001]}'))
     with pytest.raises(FaultConfigError):
         faults.set_json(text)
     assert faults.drops(1001)
+
+
+def test_delay_ranges_draw_a_delay_per_request_replayably() -> None:
+    text = '{"delay_s": {"1003": [0.5, 3.0], "1002": 2.0}, "seed": 11}'
+    first, second = Faults(parse_faults(text)), Faults(parse_faults(text))
+    draws = [first.delay_s(1003) for _ in range(50)]
+    assert all(0.5 <= d <= 3.0 for d in draws) and len(set(draws)) > 40  # differs per request
+    assert draws == [second.delay_s(1003) for _ in range(50)]  # the same seed replays the same delays
+    assert first.delay_s(1002) == 2.0 and first.delay_s(7101) == 0.0
+    assert parse_faults(text).to_json()["delay_s"] == {"1003": [0.5, 3.0], "1002": 2.0}
 
 
 def test_damp_fails_budget_is_used_up_and_restarts_on_set() -> None:

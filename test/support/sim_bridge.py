@@ -33,6 +33,7 @@ READY_TIMEOUT_S = 60.0
 STATUS_SERVICE = "g1_sim"
 STATUS_API_VERSION = "1.0.0.0"
 STATUS_GET = 9001
+STATUS_RESET = 9002
 
 
 def start_sim_bridge(sdk_domain: int, *, speed: float = 1.0, faults: dict[str, Any] | None = None,
@@ -87,12 +88,24 @@ class SimStatus:
         self._client = Client(STATUS_SERVICE, False)
         self._client._SetApiVerson(STATUS_API_VERSION)
         self._client._RegistApi(STATUS_GET, 0)
+        self._client._RegistApi(STATUS_RESET, 0)
         self._client.SetTimeout(2.0)
 
     def get(self) -> dict[str, Any]:
         code, data = self._client._Call(STATUS_GET, "{}")
         if code != 0:
             raise RuntimeError(f"sim status call failed with {code}")
+        return json.loads(data)
+
+    def reset(self) -> dict[str, Any]:
+        """Back to the boot state (standing, "ai", no faults); returns the status after it."""
+        self._client.SetTimeout(10.0)
+        try:
+            code, data = self._client._Call(STATUS_RESET, "{}")
+        finally:
+            self._client.SetTimeout(2.0)
+        if code != 0:
+            raise RuntimeError(f"sim reset failed with {code}")
         return json.loads(data)
 
     def wait_ready(self, timeout_s: float = 10.0) -> dict[str, Any]:

@@ -46,6 +46,8 @@ MODE_MACHINE_NOT_5: Final = "mode_machine_not_5"
 MOTORS_DISABLED: Final = "motors_disabled"
 
 _MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
+#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp): for the sim's record.
+FrameHook = Callable[[str, "str | None", float, float], None]
 
 
 class CommandRobot(Protocol):
@@ -66,9 +68,11 @@ def motor_arrays(msg: LowCmd_, indices: range | tuple[int, ...]) -> np.ndarray:
 class CommandIntake:
     """Checks, counts and applies LowCmd_ frames of both topics (called from DDS reader threads)."""
 
-    def __init__(self, robot: CommandRobot, *, crc: Callable[[LowCmd_], int] = lowcmd_crc) -> None:
+    def __init__(self, robot: CommandRobot, *, crc: Callable[[LowCmd_], int] = lowcmd_crc,
+                 on_frame: FrameHook | None = None) -> None:  # fmt: skip
         self._robot = robot
         self._crc = crc
+        self._on_frame = on_frame
         self._lock = threading.Lock()
         self._counts: dict[str, Counter[str]] = {LOWCMD: Counter(), ARM_SDK: Counter()}
 
@@ -85,36 +89,54 @@ class CommandIntake:
     def on_lowcmd(self, msg: LowCmd_) -> str | None:
         """Apply a rt/lowcmd frame; returns the reason it was ignored, or None."""
         self._count(LOWCMD, "received")
-        if msg.crc != self._crc(msg):
-            return self._ignore(LOWCMD, BAD_CRC)
-        if msg.mode_machine != MODE_MACHINE_G1_29DOF:
-            return self._ignore(LOWCMD, BAD_MODE_MACHINE)
         m = motor_arrays(msg, range(NUM_JOINTS))
+        why = self._check_lowcmd(msg, m)
+        if why is None:
+            enabled = m[0] == MOTOR_ENABLED
+            self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
+            self._count(LOWCMD, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
+        else:
+            self._ignore(LOWCMD, why)
+        if self._on_frame is not None:
+            self._on_frame(LOWCMD, why, 0.0, float(np.nanmax(m[4])))
+        return why
+
+    def _check_lowcmd(self, msg: LowCmd_, m: np.ndarray) -> str | None:
+        if msg.crc != self._crc(msg):
+            return BAD_CRC
+        if msg.mode_machine != MODE_MACHINE_G1_29DOF:
+            return BAD_MODE_MACHINE
         if not np.isfinite(m).all():
-            return self._ignore(LOWCMD, NON_FINITE)
+            return NON_FINITE
         if self._robot.sport_active():
-            return self._ignore(LOWCMD, NOT_DEBUG_MODE)
-        enabled = m[0] == MOTOR_ENABLED
-        self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
-        self._count(LOWCMD, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
+            return NOT_DEBUG_MODE
         return None
 
     def on_arm_sdk(self, msg: LowCmd_) -> str | None:
         """Apply a rt/arm_sdk frame; returns the reason it was ignored, or None."""
         self._count(ARM_SDK, "received")
-        if msg.crc != self._crc(msg):
-            return self._ignore(ARM_SDK, BAD_CRC)
         weight = float(msg.motor_cmd[ARM_SDK_WEIGHT_INDEX].q)
         m = motor_arrays(msg, ARM_SDK_JOINTS)
+        why = self._check_arm_sdk(msg, m, weight)
+        if why is None:
+            self._robot.apply_arm_sdk(m[1], m[2], m[3], m[4], m[5], min(max(weight, 0.0), 1.0))
+            extra = () if msg.mode_machine == MODE_MACHINE_G1_29DOF else (MODE_MACHINE_NOT_5,)
+            self._count(ARM_SDK, "accepted", *extra)
+        else:
+            self._ignore(ARM_SDK, why)
+        if self._on_frame is not None:
+            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])))
+        return why
+
+    def _check_arm_sdk(self, msg: LowCmd_, m: np.ndarray, weight: float) -> str | None:
+        if msg.crc != self._crc(msg):
+            return BAD_CRC
         if not (math.isfinite(weight) and np.isfinite(m[1:]).all()):
-            return self._ignore(ARM_SDK, NON_FINITE)
+            return NON_FINITE
         fsm_id, _ = self._robot.sport_state()
         robot = self._robot
         if not robot.sport_active() or fsm_id not in STANDING_FSM_IDS or not robot.standing_balanced:
-            return self._ignore(ARM_SDK, NOT_STANDING)
-        robot.apply_arm_sdk(m[1], m[2], m[3], m[4], m[5], min(max(weight, 0.0), 1.0))
-        extra = () if msg.mode_machine == MODE_MACHINE_G1_29DOF else (MODE_MACHINE_NOT_5,)
-        self._count(ARM_SDK, "accepted", *extra)
+            return NOT_STANDING
         return None
 
     def _ignore(self, topic: str, reason: str) -> str:

@@ -2,11 +2,13 @@
 
 Configured as JSON (ROS parameter ``faults``), e.g.::
 
-    {"delay_s": {"1002": 5.0},   # handle and answer these api ids after a delay (others go on meanwhile)
+    {"delay_s": {"1002": 5.0,    # handle and answer these api ids after a delay (others go on meanwhile)
+                 "1003": [0.5, 3.0]},  # ... or after a delay drawn per request, uniform in [low, high]
      "drop": [7101],              # neither handle nor answer these api ids (the client times out: 3104)
      "error": {"7101": 3104},     # answer this code without handling the request
      "pause_state": true,         # stop publishing rt/lowstate and rt/sportmodestate (the sim keeps running)
-     "damp_fails": 2}             # the next 2 SetFsmId(1) answer 3104 and do not damp
+     "damp_fails": 2,             # the next 2 SetFsmId(1) answer 3104 and do not damp
+     "seed": 7}                   # seed of the per-request delays (so a chaos scenario can be replayed)
 
 Every key is optional; a new configuration replaces the old one as a whole.
 """
@@ -14,6 +16,7 @@ Every key is optional; a new configuration replaces the old one as a whole.
 from __future__ import annotations
 
 import json
+import random
 import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -25,7 +28,7 @@ from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT
 #: What a failing Damp answers (the robot's controller timing out).
 DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
-_KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails"})
+_KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed"})
 
 
 class FaultConfigError(ValueError):
@@ -36,19 +39,21 @@ class FaultConfigError(ValueError):
 class FaultConfig:
     """One parsed faults configuration (immutable, so readers need no lock)."""
 
-    delay_s: Mapping[int, float] = field(default_factory=lambda: MappingProxyType({}))
+    delay_s: Mapping[int, tuple[float, float]] = field(default_factory=lambda: MappingProxyType({}))  # (low, high)
     drop: frozenset[int] = frozenset()
     error: Mapping[int, int] = field(default_factory=lambda: MappingProxyType({}))
     pause_state: bool = False
     damp_fails: int = 0
+    seed: int = 0
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "delay_s": {str(k): v for k, v in self.delay_s.items()},
+            "delay_s": {str(k): (lo if lo == hi else [lo, hi]) for k, (lo, hi) in self.delay_s.items()},
             "drop": sorted(self.drop),
             "error": {str(k): v for k, v in self.error.items()},
             "pause_state": self.pause_state,
             "damp_fails": self.damp_fails,
+            "seed": self.seed,
         }
 
 
@@ -87,12 +92,15 @@ def parse_faults(text: str) -> FaultConfig:
     delay_raw = raw.get("delay_s", {})
     if not isinstance(delay_raw, dict):
         raise FaultConfigError("delay_s must be an object {api_id: seconds}")
-    delay: dict[int, float] = {}
+    delay: dict[int, tuple[float, float]] = {}
     for k, v in delay_raw.items():
-        seconds = _number(v, f"delay_s[{k}]")
-        if not 0.0 <= seconds <= 3600.0:
-            raise FaultConfigError(f"delay_s[{k}]: seconds must be within 0..3600, got {seconds}")
-        delay[_api_id(k, "delay_s")] = seconds
+        bounds = v if isinstance(v, list) else [v, v]
+        if len(bounds) != 2:
+            raise FaultConfigError(f"delay_s[{k}]: expected seconds or [low, high], got {v!r}")
+        low, high = (_number(b, f"delay_s[{k}]") for b in bounds)
+        if not 0.0 <= low <= high <= 3600.0:
+            raise FaultConfigError(f"delay_s[{k}]: seconds must be within 0..3600 and low <= high, got {v!r}")
+        delay[_api_id(k, "delay_s")] = (low, high)
 
     drop_raw = raw.get("drop", [])
     if not isinstance(drop_raw, list):
@@ -117,7 +125,11 @@ def parse_faults(text: str) -> FaultConfig:
     if isinstance(damp_fails, bool) or not isinstance(damp_fails, int) or damp_fails < 0:
         raise FaultConfigError(f"damp_fails must be a non-negative integer, got {damp_fails!r}")
 
-    return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails)
+    seed = raw.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise FaultConfigError(f"seed must be an integer, got {seed!r}")
+
+    return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed)
 
 
 class Faults:
@@ -127,6 +139,7 @@ class Faults:
         self._lock = threading.Lock()
         self._config = config or FaultConfig()
         self._damp_fails_left = self._config.damp_fails
+        self._rng = random.Random(self._config.seed)
 
     @property
     def config(self) -> FaultConfig:
@@ -137,6 +150,7 @@ class Faults:
         with self._lock:
             self._config = config
             self._damp_fails_left = config.damp_fails
+            self._rng = random.Random(config.seed)
 
     def set_json(self, text: str) -> FaultConfig:
         """Parse and apply; on error raise FaultConfigError and keep the previous configuration."""
@@ -145,7 +159,12 @@ class Faults:
         return config
 
     def delay_s(self, api_id: int) -> float:
-        return self._config.delay_s.get(api_id, 0.0)
+        """This request's delay: fixed, or drawn from [low, high] (the robot's seconds vary per call)."""
+        low, high = self._config.delay_s.get(api_id, (0.0, 0.0))
+        if low == high:
+            return low
+        with self._lock:
+            return self._rng.uniform(low, high)
 
     def drops(self, api_id: int) -> bool:
         return api_id in self._config.drop

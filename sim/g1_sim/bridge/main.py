@@ -36,6 +36,7 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--no-ros-publish", action="store_true", help="do not publish /joint_states, /odom, /clock")
     p.add_argument("--assets", help="simulation assets folder (default: the installed ones)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random numbers")
+    p.add_argument("--record", help="append every request, frame and state change the robot saw to this JSONL file")
     args = p.parse_args(list(argv))
     if args.speed is not None and args.speed < 0:
         p.error("--speed must be >= 0")
@@ -86,7 +87,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         node = BridgeNode(overrides=_overrides(args))
         try:
-            bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event)
+            bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event, record=args.record)
         except FaultConfigError as e:
             node.get_logger().error(f"bad faults parameter: {e}")
             return EXIT_BAD_CONFIG
@@ -121,12 +122,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 class Bridge:
     """Everything but the ROS executor: the robot, its RPC services, topics and the sim thread."""
 
-    def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event) -> None:
+    def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event,
+                 record: str | None = None) -> None:  # fmt: skip
         from g1_mode_manager.protocol import api_ids as api
         from g1_mode_manager.protocol.dds import init_channels
         from g1_sim.bridge.clock import Pacer, StampClock
         from g1_sim.bridge.commands import CommandIntake
         from g1_sim.bridge.faults import Faults, parse_faults
+        from g1_sim.bridge.record import Recorder
         from g1_sim.bridge.rpc_services import (
             RequestCounter,
             SimServer,
@@ -136,6 +139,7 @@ class Bridge:
         from g1_sim.bridge.sim_loop import SimLoop
         from g1_sim.bridge.status import STATUS_API_VERSION, STATUS_SERVICE, status_handlers
         from g1_sim.bridge.streams import CommandSubscribers, StatePublishers
+        from g1_sim.bridge.swap import RobotSlot
         from g1_sim.firmware import SimG1
 
         p = node.params()
@@ -144,23 +148,28 @@ class Bridge:
         node.on_faults = self.faults.set_json
         node.on_speed = self.pacer.set_speed
         t0 = time.monotonic()
-        self.robot = SimG1(assets, seed=seed)
+        self._make_robot = lambda: SimG1(assets, seed=seed)
+        self.robot = RobotSlot(self._make_robot())  # every part holds the slot, so reset() can swap the robot
         log.info("robot ready in %.1f s (dt %.4f s)", time.monotonic() - t0, self.robot.dt)
         init_channels(p.dds_domain, p.network_interface)
+        self.record = Recorder(record)
         self.requests = RequestCounter()
+        hooks = {"on_received": self._received, "on_handled": self._handled} if self.record.enabled else {}
         self.servers = [
             SimServer(api.LOCO_SERVICE, api.LOCO_API_VERSION, sport_handlers(self.robot, self.faults),
-                      faults=self.faults, counter=self.requests),
+                      faults=self.faults, counter=self.requests, **hooks),
             SimServer(api.MOTION_SWITCHER_SERVICE, api.MOTION_SWITCHER_API_VERSION,
-                      motion_switcher_handlers(self.robot), faults=self.faults, counter=self.requests),
-            SimServer(STATUS_SERVICE, STATUS_API_VERSION, status_handlers(self.status)),
+                      motion_switcher_handlers(self.robot), faults=self.faults, counter=self.requests, **hooks),
+            SimServer(STATUS_SERVICE, STATUS_API_VERSION, status_handlers(self.status, self.reset)),
         ]  # fmt: skip
+        self._record_state()
         for server in self.servers:
             if stop.is_set():
                 break
             server.Start()
         self.publishers = StatePublishers()
-        self.intake = CommandIntake(self.robot)
+        frame_hook = self._frame if self.record.enabled else None
+        self.intake = CommandIntake(self.robot, on_frame=frame_hook)
         self.subscribers = CommandSubscribers(self.intake)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock())
         self._params = p
@@ -172,6 +181,34 @@ class Bridge:
         self.loop.stop()
         for server in self.servers:
             server.cancel_delayed()
+        self.record.close()
+
+    def reset(self) -> None:
+        """Back to the boot state: a fresh robot (standing, "ai"), no faults, nothing delayed in flight."""
+        from g1_sim.bridge.faults import FaultConfig
+
+        for server in self.servers:
+            server.cancel_delayed()
+        self.faults.set(FaultConfig())
+        self.robot.swap(self._make_robot())
+        self.pacer.set_speed(self.pacer.speed)  # sim time restarts: pace from here
+        self.record.event("reset")
+        self._record_state()
+
+    # --- the robot's record ---------------------------------------------------------------------------
+    def _received(self, service: str, api_id: int, parameter: str, noreply: bool) -> None:
+        self.record.event("req", svc=service, api=api_id, p=parameter, noreply=noreply)
+
+    def _handled(self, service: str, api_id: int, parameter: str, code: int) -> None:
+        self.record.event("done", svc=service, api=api_id, p=parameter, code=code)
+        self._record_state()
+
+    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float) -> None:
+        self.record.event("frame", topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max)
+
+    def _record_state(self) -> None:
+        robot = self.robot
+        self.record.state(robot.fsm_id, robot.check_mode()[1], robot.sport_state()[1])
 
     def status(self) -> dict[str, Any]:
         """Counters, sport state, base pose and real-time factor (the g1_sim status service's reply)."""

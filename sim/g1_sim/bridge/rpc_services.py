@@ -211,14 +211,23 @@ class RequestCounter:
             return {s: {str(k): [dict(r) for r in v] for k, v in sorted(c.items())} for s, c in self._recent.items()}
 
 
+#: on_received(service, api_id, parameter, noreply) when a request arrives; on_handled(service, api_id,
+#: parameter, code) once it was handled (after any injected delay). For the sim's record.
+Received = Callable[[str, int, str, bool], None]
+Handled = Callable[[str, int, str, int], None]
+
+
 class SimServer(Server):
-    """The SDK's RPC Server plus request counting and injected faults."""
+    """The SDK's RPC Server plus request counting, injected faults and hooks for the sim's record."""
 
     def __init__(self, name: str, version: str, handlers: dict[int, Handler], *,
-                 faults: Faults | None = None, counter: RequestCounter | None = None) -> None:  # fmt: skip
+                 faults: Faults | None = None, counter: RequestCounter | None = None,
+                 on_received: Received | None = None, on_handled: Handled | None = None) -> None:  # fmt: skip
         super().__init__(name)
         self._faults = faults or Faults()
         self._counter = counter or RequestCounter()
+        self._on_received = on_received
+        self._on_handled = on_handled
         self._timers: list[threading.Timer] = []
         self._timers_lock = threading.Lock()
         self._SetApiVersion(version)
@@ -228,9 +237,10 @@ class SimServer(Server):
     def _with_error_fault(self, api_id: int, handler: Handler) -> Handler:
         def run(parameter: str) -> Reply:
             code = self._faults.error_code(api_id)
-            if code is not None:
-                return (code, "")
-            return handler(parameter)
+            reply = (code, "") if code is not None else handler(parameter)
+            if self._on_handled is not None:
+                self._on_handled(self.GetName(), api_id, parameter, reply[0])
+            return reply
 
         return run
 
@@ -245,6 +255,8 @@ class SimServer(Server):
     def _on_request(self, request: Any) -> None:
         api_id = int(request.header.identity.api_id)
         self._counter.add(self.GetName(), api_id, str(request.parameter))
+        if self._on_received is not None:
+            self._on_received(self.GetName(), api_id, str(request.parameter), bool(request.header.policy.noreply))
         if self._faults.drops(api_id):
             return
         delay = self._faults.delay_s(api_id)

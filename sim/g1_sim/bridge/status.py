@@ -13,7 +13,17 @@ from typing import Any, Final
 STATUS_SERVICE: Final = "g1_sim"
 STATUS_API_VERSION: Final = "1.0.0.0"
 STATUS_GET: Final = 9001
+#: Back to the boot state (standing, "ai" selected, no faults): a harness runs many scenarios on one bridge.
+STATUS_RESET: Final = 9002
 
 
-def status_handlers(collect: Callable[[], dict[str, Any]]) -> dict[int, Callable[[str], tuple[int, str]]]:
-    return {STATUS_GET: lambda parameter: (0, json.dumps(collect()))}
+def status_handlers(collect: Callable[[], dict[str, Any]],
+                    reset: Callable[[], None] | None = None) -> dict[int, Callable[[str], tuple[int, str]]]:  # fmt: skip
+    handlers = {STATUS_GET: lambda parameter: (0, json.dumps(collect()))}
+    if reset is not None:
+        def do_reset(_parameter: str) -> tuple[int, str]:
+            reset()
+            return (0, json.dumps(collect()))
+
+        handlers[STATUS_RESET] = do_reset
+    return handlers

@@ -1,0 +1,60 @@
+"""The robot's own record: every request and frame the sim received, and every change of its state.
+
+One JSON object per line, written as it happens, with ``t`` = CLOCK_MONOTONIC (shared by every process
+of the machine, so a test can compare it with the moment it sent something). Kinds:
+
+* ``req``: an RPC request on arrival: ``svc``, ``api``, ``p`` (JSON parameter), ``noreply``.
+* ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
+* ``frame``: an rt/lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
+  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded).
+* ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
+  ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``.
+* ``reset``: the sim was reset to its boot state (a sim-only status call).
+
+This is what end-to-end and chaos tests judge by: the robot's side, never the node's belief.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from typing import IO, Any
+
+
+class Recorder:
+    """Appends events to a JSONL file; without a path it records nothing (and costs nothing)."""
+
+    def __init__(self, path: str | None) -> None:
+        self._lock = threading.Lock()
+        self._file: IO[str] | None = open(path, "a", buffering=1) if path else None  # noqa: SIM115 (closed in close())
+        self._state: tuple[int, str, int] | None = None
+
+    @property
+    def enabled(self) -> bool:
+        return self._file is not None
+
+    def event(self, kind: str, **fields: Any) -> None:
+        if self._file is None:
+            return
+        line = json.dumps({"k": kind, "t": time.monotonic(), **fields}, separators=(",", ":"))
+        with self._lock:
+            if self._file is not None:
+                self._file.write(line + "\n")
+
+    def state(self, fsm: int, service: str, fsm_mode: int) -> None:
+        """Record the robot's state if it differs from the last one recorded."""
+        if self._file is None:
+            return
+        key = (int(fsm), service, int(fsm_mode))
+        with self._lock:
+            if key == self._state:
+                return
+            self._state = key
+        self.event("state", fsm=key[0], svc=key[1], fsm_mode=key[2])
+
+    def close(self) -> None:
+        with self._lock:
+            if self._file is not None:
+                self._file.close()
+                self._file = None
