@@ -10,9 +10,9 @@ class EstopTiming:
     """How long the e-stop and its supervision may wait for the robot.
 
     An e-stop answers within ``total_s`` plus one call timeout, whatever the robot does: with a dead
-    link that is the documented bound of a failed e-stop. Its own calls use short timeouts of their
-    own (``call_s`` for CheckMode, Damp and GetFsmId, ``select_s`` for SelectMode('ai') and its
-    confirmation), never the transitions' long ones.
+    link that is the documented bound of a failed e-stop. Its own calls use timeouts of their own
+    (``call_s`` for Damp and GetFsmId, ``select_s`` for the motion switcher's CheckMode and
+    SelectMode('ai') and its confirmation), never the transitions' long ones.
     """
 
     call_s: float = 0.5

@@ -319,7 +319,7 @@ class ModeMachine:
             if self._claim_runner():
                 threading.Thread(target=self._run_estops, name="estop_sequence", daemon=True).start()
             message = "e-stop registered: DampNoReply sent, damping sequence running"
-            record = TransitionRecord(source, Mode.EMERGENCY, Result.OK, self._clock() - start, message)
+            record = TransitionRecord(source, Mode.EMERGENCY, Result.REGISTERED, self._clock() - start, message)
             with self._state_lock:
                 self._history.append(record)
             self._emit(record)
@@ -353,7 +353,7 @@ class ModeMachine:
         now = self._clock()
         with self._state_lock:
             mode, connected, transition = self._mode, self._connected, self._inflight is not None
-        if not connected:
+        if not connected and mode is not Mode.EMERGENCY:
             return
         if mode is Mode.EMERGENCY:
             self._supervise_emergency(now, fsm_id, state_age_s)

@@ -114,5 +114,8 @@ class RobotPort(ModePort, Protocol):
     def joint_positions(self) -> Sequence[float] | None:
         """The 29 measured joint positions of the last rt/lowstate, in motor order."""
 
+    def lowstate_restarts(self) -> int:
+        """How often rt/lowstate's tick went back (the robot rebooted) since connect."""
+
     def close(self) -> None:
         """Stop readers and writers."""

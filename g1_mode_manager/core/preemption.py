@@ -33,8 +33,8 @@ def _untracked(_flag: threading.Event | None) -> AbstractContextManager[object]:
 class RunPort:
     """A ModePort wrapper for one transition or e-stop sequence (preemptible if given a flag).
 
-    ``call_timeout_s`` bounds CheckMode, Damp and GetFsmId, ``select_timeout_s`` SelectMode and
-    ReleaseMode (None: the port's defaults).
+    ``call_timeout_s`` bounds the loco calls (Damp, GetFsmId), ``select_timeout_s`` the motion
+    switcher's (CheckMode, SelectMode, ReleaseMode: seconds on a robot). None: the port's defaults.
     """
 
     def __init__(
@@ -67,7 +67,7 @@ class RunPort:
 
     def check_mode(self) -> str:
         self._check("check_mode")
-        name = self._port.check_mode(timeout_s=self._call_timeout_s)
+        name = self._port.check_mode(timeout_s=self._select_timeout_s)
         self._check("check_mode")
         self._note_service(True, bool(name), self._preempted)
         return name

@@ -15,6 +15,7 @@ class Result(StrEnum):
     REFUSED = "refused"  # not attempted: illegal pair, same mode, busy, or EMERGENCY
     FAILED = "failed"  # attempted and failed: the old mode is kept (an e-stop stays EMERGENCY)
     PREEMPTED = "preempted"  # cut short by an e-stop; no further robot call, mode not committed
+    REGISTERED = "registered"  # an e-stop from a topic: EMERGENCY entered, the damping sequence runs on
 
 
 @dataclass(frozen=True)

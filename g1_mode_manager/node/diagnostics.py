@@ -33,8 +33,12 @@ def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: Link
     if status.mode is Mode.EMERGENCY:
         mode_status.level = DiagnosticStatus.OK if status.damp_confirmed else DiagnosticStatus.ERROR
         mode_status.message = (
-            "EMERGENCY, damped" if status.damp_confirmed else "EMERGENCY, Damp not confirmed: call ~/estop again"
+            "EMERGENCY, robot seen damped" if status.damp_confirmed
+            else "EMERGENCY, robot NOT seen damped: supervision is re-damping it"
         )
+    elif status.robot_mismatch:
+        mode_status.level = DiagnosticStatus.ERROR
+        mode_status.message = f"{status.mode.name}: {status.robot_mismatch}; nothing forwarded until a mode is requested"
     else:
         mode_status.level, mode_status.message = DiagnosticStatus.OK, status.mode.name
     mode_status.values = [
@@ -44,6 +48,9 @@ def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: Link
             ("active" if status.service_active else "released")),
         _kv("last_refusal", status.last_refusal),
         _kv("last_error", status.last_error),
+        _kv("robot_mismatch", status.robot_mismatch),
+        _kv("damp_confirmed", status.damp_confirmed),
+        _kv("reasserts", status.reasserts),
     ]
 
     refused = sum(v for k, v in counts.items() if k.endswith(("_dropped", "_rejected")))

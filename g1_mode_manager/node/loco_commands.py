@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
+from typing import Protocol
 
+from g1_mode_manager.core import modes
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
@@ -47,13 +50,28 @@ COMMANDS: dict[str, Callable[[RobotPort, int], None]] = {
 _VALUE_RANGES = {"continuous_gait": range(0, 2), "speed_mode": range(0, 4)}
 
 
-def run_loco_command(port: RobotPort, mode: Mode, allows_loco: bool, command: str, value: int) -> LocoResult:
+class LocoGate(Protocol):
+    """What a loco command asks of the mode machine (see ModeMachine.robot_call)."""
+
+    @property
+    def mode(self) -> Mode: ...
+    def robot_call(self, allowed: Callable[[Mode], bool]) -> AbstractContextManager[bool]: ...
+
+
+def _damp_allowed(mode: Mode) -> bool:
+    return mode not in (Mode.UNINITIALIZED, Mode.LOW_LEVEL)
+
+
+def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int) -> LocoResult:
     """Check the command against the mode and the robot's state, then send it.
 
     Damping is allowed wherever the sport service can answer (every connected mode but LOW_LEVEL);
     everything else only in HIGH_LEVEL (with no transition in flight) and only while the robot is
-    static (fsm_mode 0), as the robot itself would refuse most switches while dynamic.
+    static (fsm_mode 0), as the robot itself would refuse most switches while dynamic. The mode check
+    and the send are one ``robot_call``: an e-stop that begins meanwhile refuses it, or waits for it to
+    land and then re-damps.
     """
+    mode = gate.mode
     name = command.strip().lower()
     action = COMMANDS.get(name)
     if action is None:
@@ -68,16 +86,23 @@ def run_loco_command(port: RobotPort, mode: Mode, allows_loco: bool, command: st
             return LocoResult(False, "LOW_LEVEL: the sport service is released, damping is impossible; use ~/estop, "
                                      "which re-selects the service and then damps")
     else:
-        if not allows_loco:
-            return LocoResult(False, f"mode is {mode.name}: loco commands are allowed only in HIGH_LEVEL "
-                                     "(and not during a transition)")
+        if not modes.allows_loco_commands(mode):
+            return _not_allowed(mode)
         state = port.sport_state()
         if state is None:
             return LocoResult(False, "no rt/sportmodestate received: the robot's state is unknown")
         if state.fsm_mode == FsmMode.DYNAMIC:
             return LocoResult(False, "the robot is dynamic (fsm_mode 1): only damp is allowed; stop it first")
-    try:
-        action(port, value)
-    except RobotError as exc:
-        return LocoResult(False, str(exc), exc.code)
+    with gate.robot_call(_damp_allowed if name == "damp" else modes.allows_loco_commands) as allowed:
+        if not allowed:
+            return _not_allowed(gate.mode)
+        try:
+            action(port, value)
+        except RobotError as exc:
+            return LocoResult(False, str(exc), exc.code)
     return LocoResult(True, f"{name} sent" + (f" (value {value})" if name in _VALUE_RANGES else ""), 0)
+
+
+def _not_allowed(mode: Mode) -> LocoResult:
+    return LocoResult(False, f"mode is {mode.name}: loco commands are allowed only in HIGH_LEVEL "
+                             "(not during a transition, an e-stop or a robot/mode mismatch)")

@@ -66,9 +66,14 @@ class ModeManagerNode(Node):
             self._port,
             release_timeout_s=s.release_timeout_s,
             select_timeout_s=s.select_timeout_s,
+            estop_timing=s.estop_timing(),
             on_record=self._on_record,
             on_change=self._on_change,
+            on_alarm=self._on_alarm,
         )
+        self._publish_lock = threading.Lock()
+        self._published_version = -1
+        self._restarts_seen = 0
         self._link = LinkHealth(self._port, self.machine, s.link_timeout_s)
 
         self._mode_pub = self.create_publisher(ModeMsg, "~/mode", MODE_QOS)
@@ -111,8 +116,10 @@ class ModeManagerNode(Node):
         ]
         for worker in self._workers:
             worker.start()
-        self._estop = EstopEndpoint(self, self.machine.estop, retries=s.estop_retries)
+        self._estop = EstopEndpoint(self, self.machine.estop)
         self._estop.start()
+        self._supervisor = PeriodicWorker("supervisor", s.supervise_rate_hz, self._supervise, self._worker_error)
+        self._supervisor.start()
         self._service_side.start()
         self._publish_mode()
         self.get_logger().info(
@@ -124,6 +131,7 @@ class ModeManagerNode(Node):
         """Hand the robot back safely (arms ramped out, StopMove), stop relays and the e-stop executor, close
         the robot port. Call before destroy_node()."""
         self._arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
+        self._supervisor.stop()
         for worker in self._workers:
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
         self._service_side.shutdown()
@@ -157,8 +165,7 @@ class ModeManagerNode(Node):
         return response
 
     def _on_loco_command(self, request: LocoCommand.Request, response: LocoCommand.Response) -> LocoCommand.Response:
-        result = run_loco_command(self._port, self.machine.mode, self.machine.allows_loco_commands(),
-                                  request.command, request.value)
+        result = run_loco_command(self._port, self.machine, request.command, request.value)
         if result.success:
             self.get_logger().info(f"loco_command: {result.message}")
         else:
@@ -201,7 +208,15 @@ class ModeManagerNode(Node):
             self._mirroring = True
 
     def _publish_mode(self, status: MachineStatus | None = None) -> None:
-        status = status or self.machine.status()
+        """Publish a status unless a newer one was published already: ~/mode never goes back in time."""
+        with self._publish_lock:
+            status = status or self.machine.status()
+            if status.version < self._published_version:
+                return
+            self._published_version = status.version
+            self._publish_mode_locked(status)
+
+    def _publish_mode_locked(self, status: MachineStatus) -> None:
         self._mode_pub.publish(ModeMsg(
             stamp=self.get_clock().now().to_msg(),
             mode=int(status.mode),
@@ -214,6 +229,8 @@ class ModeManagerNode(Node):
             link_ok=self._link.link_ok(),
             last_refusal=status.last_refusal,
             last_error=status.last_error,
+            robot_mismatch=status.robot_mismatch,
+            reasserts=status.reasserts,
         ))
 
     def _publish_diagnostics(self) -> None:
@@ -226,14 +243,37 @@ class ModeManagerNode(Node):
                 f"{record.duration_s * 1000:.0f} ms: {record.message}")
         if record.outcome is Result.OK:
             self.get_logger().info(text)
-        elif record.outcome is Result.REFUSED:
+        elif record.outcome in (Result.REFUSED, Result.REGISTERED):
             self.get_logger().warn(text)
         else:
             self.get_logger().error(text)
 
+    def _on_alarm(self, text: str) -> None:
+        self._events.count("supervision_alarms")
+        self.get_logger().error(text)
+
+    def _supervise(self, _dt_s: float) -> None:
+        """Check the robot against the mode: EMERGENCY re-damped if seen out of damping, a mismatch
+        (another program, a reboot seen in rt/lowstate's tick) stops forwarding."""
+        restarts = self._port.lowstate_restarts()
+        if restarts > self._restarts_seen:
+            self._restarts_seen = restarts
+            self.machine.report_mismatch("the robot restarted (rt/lowstate tick went back)")
+        state = self._port.sport_state()
+        if state is None:
+            self.machine.supervise()
+        else:
+            self.machine.supervise(state.fsm_id, state.age_s)
+
     def _relay_log(self, level: str, text: str) -> None:
         logger = self.get_logger()
-        {"info": logger.info, "warn": logger.warn}.get(level, logger.error)(text)
+        # one call site per severity: rclpy refuses a second severity from the same line
+        if level == "info":
+            logger.info(text)
+        elif level == "warn":
+            logger.warn(text)
+        else:
+            logger.error(text)
 
     def _worker_error(self, exc: BaseException) -> None:
         self._events.count("relay_errors")

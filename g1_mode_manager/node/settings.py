@@ -7,6 +7,7 @@ from dataclasses import dataclass, fields
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 from rclpy.node import Node
 
+from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
 
 
@@ -38,7 +39,17 @@ class Settings:
     link_timeout_s: float = 0.5
     mode_publish_rate_hz: float = 1.0
     diagnostics_rate_hz: float = 1.0
-    estop_retries: int = 2
+    estop_call_timeout_s: float = EstopTiming.call_s
+    estop_select_timeout_s: float = EstopTiming.select_s
+    estop_timeout_s: float = EstopTiming.total_s
+    supervise_rate_hz: float = 10.0
+    estop_verify_period_s: float = EstopTiming.verify_period_s
+    belief_check_period_s: float = EstopTiming.belief_period_s
+
+    def estop_timing(self) -> EstopTiming:
+        return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
+                           total_s=self.estop_timeout_s, verify_period_s=self.estop_verify_period_s,
+                           belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
 
 
 _DESCRIPTIONS: dict[str, str] = {
@@ -70,7 +81,16 @@ _DESCRIPTIONS: dict[str, str] = {
     "link_timeout_s": "rt/lowstate (and in HIGH_LEVEL rt/sportmodestate) older than this = link lost, s.",
     "mode_publish_rate_hz": "Rate at which ~/mode is re-published besides every change, Hz.",
     "diagnostics_rate_hz": "Rate of /diagnostics, Hz.",
-    "estop_retries": "How often one e-stop request repeats a sequence that did not end with an acknowledged Damp.",
+    "estop_call_timeout_s": "Timeout of each Damp and GetFsmId of an e-stop (short: a dead link must not hold it), s.",
+    "estop_select_timeout_s": "Timeout of an e-stop's motion switcher calls (CheckMode, SelectMode('ai') and its "
+    "confirmation), s.",
+    "estop_timeout_s": "An e-stop answers within this (plus one call timeout): verified damped, or failed while "
+    "supervision keeps trying, s.",
+    "supervise_rate_hz": "Rate at which the robot is checked against the mode (EMERGENCY: re-damped if seen out of "
+    "damping), Hz.",
+    "estop_verify_period_s": "In EMERGENCY: period of CheckMode + GetFsmId re-verification of the robot, s.",
+    "belief_check_period_s": "Outside EMERGENCY: period of the CheckMode that confirms the robot still matches the "
+    "mode, s.",
 }
 
 #: Float ranges other than the default (1e-3, 1e6).

@@ -174,6 +174,9 @@ class UnitreeRobot:
     def joint_positions(self) -> Sequence[float] | None:
         return None if self._lowstate is None else self._lowstate.joint_positions()
 
+    def lowstate_restarts(self) -> int:
+        return 0 if self._lowstate is None else self._lowstate.restarts
+
     def mode_machine(self) -> int | None:
         """mode_machine of the last rt/lowstate (copied into every LowCmd_), None before the first."""
         return self._lowstate_mode_machine()

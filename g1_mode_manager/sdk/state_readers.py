@@ -106,6 +106,11 @@ def decode_lowstate(data: bytes) -> LowStateSnapshot:
                             q=tuple(float(m.q) for m in msg.motor_state[:NUM_JOINTS]), data=data)  # fmt: skip
 
 
+#: rt/lowstate's tick (ms) going back by more than this means the robot restarted (not reordering, not
+#: the uint32 wrap after 49 days, which goes back by almost 2**32).
+TICK_RESTART_MS = 1000
+
+
 class LowStateReader:
     """rt/lowstate (500 Hz on the robot): mode_machine for LowCmd_ and the measured joint positions.
 
@@ -128,6 +133,7 @@ class LowStateReader:
         self._stamp = 0.0
         self._count = 0
         self._errors = 0
+        self._restarts = 0
         self._reader = DataReader(participant, Topic(participant, topic, LowState_),
                                   listener=Listener(on_data_available=self._on_data))  # fmt: skip
 
@@ -147,6 +153,9 @@ class LowStateReader:
             return
         now = time.monotonic()
         with self._lock:
+            previous = self._snapshot
+            if previous is not None and snapshot.tick + TICK_RESTART_MS < previous.tick:
+                self._restarts += 1  # the robot's tick went back: it rebooted
             self._snapshot, self._stamp, self._count = snapshot, now, self._count + len(data)
 
     def latest(self) -> tuple[LowStateSnapshot | None, float, int]:
@@ -162,6 +171,12 @@ class LowStateReader:
     def age_s(self) -> float | None:
         snapshot, stamp, _ = self.latest()
         return None if snapshot is None else time.monotonic() - stamp
+
+    @property
+    def restarts(self) -> int:
+        """How often the robot's tick went back (a reboot) since this reader started."""
+        with self._lock:
+            return self._restarts
 
     @property
     def mode_machine(self) -> int | None:

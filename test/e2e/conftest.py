@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
@@ -14,6 +16,7 @@ from geometry_msgs.msg import Twist
 from support.mode_manager import RosClient, start_mode_manager
 from support.processes import ManagedProcess
 from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
+from support.sim_record import SimRecord
 
 
 @dataclass
@@ -24,6 +27,7 @@ class Stack:
     node: ManagedProcess
     ros: RosClient
     sim: SimStatus
+    record: SimRecord  # the robot's own record: every request, frame and state change, with receive times
 
     def set_mode(self, name: str, timeout_s: float = 30.0) -> SetMode.Response:
         return self.ros.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode_name=name), timeout_s)
@@ -60,28 +64,39 @@ class Stack:
                 time.sleep(0.05)
         return self._cmd_vel
 
+    def set_faults(self, faults: dict) -> None:
+        """Replace the sim's faults at run time (its `faults` parameter)."""
+        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+        from rcl_interfaces.srv import SetParameters
+
+        value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=json.dumps(faults))
+        r = self.ros.call(SetParameters, "/g1_sim_bridge/set_parameters",
+                          SetParameters.Request(parameters=[Parameter(name="faults", value=value)]))
+        assert r.results[0].successful, r.results[0].reason
+
     def horizontal_speed(self) -> float:
         v = self.sim.get()["base"]["linear_velocity"]
         return math.hypot(v[0], v[1])
 
 
 @pytest.fixture
-def stack_factory(sdk_channels: int) -> Iterator:
-    """factory(faults=None) -> Stack; everything it started is stopped after the test."""
+def stack_factory(sdk_channels: int, tmp_path: Path) -> Iterator:
+    """factory(faults=None, node_params=()) -> Stack; everything it started is stopped after the test."""
     started: list[ManagedProcess] = []
     clients: list[RosClient] = []
 
-    def factory(faults: dict | None = None) -> Stack:
-        bridge = start_sim_bridge(sdk_channels, speed=1.0, faults=faults)
+    def factory(faults: dict | None = None, node_params: Sequence[str] = ()) -> Stack:
+        record = tmp_path / f"sim_record_{len(started)}.jsonl"
+        bridge = start_sim_bridge(sdk_channels, speed=1.0, faults=faults, extra_args=("--record", str(record)))
         started.append(bridge)
-        node = start_mode_manager(sdk_channels)
+        node = start_mode_manager(sdk_channels, *node_params)
         started.append(node)
         ros = RosClient()
         clients.append(ros)
         ros.wait_node_answers()
         sim = shared_sim_status()  # SDK clients must live for the whole process (see support.sim_bridge)
         sim.wait_ready(15.0)
-        return Stack(bridge, node, ros, sim)
+        return Stack(bridge, node, ros, sim, SimRecord(record))
 
     yield factory
     for ros in clients:

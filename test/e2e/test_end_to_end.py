@@ -197,18 +197,6 @@ def test_lowcmd_moves_a_joint_in_low_level_only(stack_factory) -> None:
     assert frames.get("accepted", 0) > 50 and frames.get("bad_crc", 0) == 0 and frames.get("bad_mode_machine", 0) == 0
 
 
-def _set_sim_faults(stack, faults: dict) -> None:
-    import json
-
-    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-    from rcl_interfaces.srv import SetParameters
-
-    value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=json.dumps(faults))
-    r = stack.ros.call(SetParameters, "/g1_sim_bridge/set_parameters",
-                       SetParameters.Request(parameters=[Parameter(name="faults", value=value)]))
-    assert r.results[0].successful, r.results[0].reason
-
-
 def test_losing_the_robot_link_is_an_error_and_stops_forwarding(stack_factory) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
 
@@ -224,14 +212,14 @@ def test_losing_the_robot_link_is_an_error_and_stops_forwarding(stack_factory) -
 
     stack.ros.node.create_subscription(DiagnosticArray, "/diagnostics", on_diag, 10)
     stack.drive(0.3, 1.0)
-    _set_sim_faults(stack, {"pause_state": True})  # the robot stops publishing rt/lowstate, rt/sportmodestate
+    stack.set_faults({"pause_state": True})  # the robot stops publishing rt/lowstate, rt/sportmodestate
     moves = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
     stack.drive(0.3, 2.0)
     after = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
     assert after - moves <= 12, f"{after - moves} Moves sent without a link"  # at most the link timeout's worth
     assert wait_until(lambda: any(level == error_level for level, _ in link_levels), 5.0), link_levels
     assert any("robot link lost" in text for _, text in link_levels)
-    _set_sim_faults(stack, {})
+    stack.set_faults({})
     assert wait_until(lambda: link_levels and link_levels[-1][0] == ok_level, 5.0)
     resumed = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
     stack.drive(0.3, 1.0)

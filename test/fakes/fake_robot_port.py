@@ -5,6 +5,7 @@ For unit tests of the relays and the node's plumbing only; end-to-end tests use 
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -35,6 +36,7 @@ class FakeRobotPort(FakeRobot):
         self.positions: list[float] | None = [0.1 * i for i in range(NUM_JOINTS)]
         self.fail_stream: dict[str, int] = {}  # name -> error code for every call
         self.listener: Callable[[SportState], None] | None = None
+        self.restarts = 0
 
     def _record(self, name: str, *args: object) -> None:
         code = self.fail_stream.get(name)
@@ -74,6 +76,9 @@ class FakeRobotPort(FakeRobot):
         self._record("write_lowcmd", tuple(commands))
 
     def sport_state(self) -> SportState | None:
+        """The state the test set, except that a damping robot reports fsm 1 (as rt/sportmodestate does)."""
+        if self.sport is not None and self.damped and self.service:
+            return dataclasses.replace(self.sport, fsm_id=1, fsm_mode=0)
         return self.sport
 
     def set_sport_state_listener(self, listener: Callable[[SportState], None] | None) -> None:
@@ -87,3 +92,6 @@ class FakeRobotPort(FakeRobot):
 
     def close(self) -> None:
         self._record("close")
+
+    def lowstate_restarts(self) -> int:
+        return self.restarts

@@ -1,0 +1,161 @@
+"""The e-stop judged by the robot: the sim's own record of what it received and what state it was in.
+
+Every scenario makes a race window as long as it is on a real G1 (ReleaseMode/SelectMode take seconds)
+with the sim's delay faults, fires the e-stop inside it, and asserts on the sim's record: the robot is
+damping with "ai" selected when the e-stop answers success, and stays so; a call that was in flight
+and landed after the e-stop's Damp is followed by a re-damp.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+
+from g1_mode_manager.protocol import api_ids
+from support.mode_manager import wait_until
+from support.sim_record import damped, is_damp, requests, states, velocity_of
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+SETTLE_S = 1.5  # how long after the e-stop's answer the robot must stay damped
+
+
+def _assert_damped_from(stack, t_answer: float) -> list[dict]:
+    """The sim's record: damped (fsm 1, "ai") at the moment the e-stop answered and ever after."""
+    time.sleep(SETTLE_S)
+    events = stack.record.events()
+    history = states(events)
+    before = [s for s in history if s["t"] <= t_answer]
+    after = [s for s in history if s["t"] > t_answer]
+    assert before and damped(before[-1]), f"robot not damped when the e-stop answered: {before[-3:]}"
+    assert all(damped(s) for s in after), f"robot left damping after the e-stop answered: {after}"
+    sport = stack.sim.get()["sport"]
+    assert sport["fsm_id"] == 1 and sport["mode"] == "ai", sport
+    return events
+
+
+def _estop_in(stack, pool: ThreadPoolExecutor, action, delay_s: float):
+    """Start ``action`` in the pool, fire the e-stop ``delay_s`` later; (e-stop reply, time answered)."""
+    pending = pool.submit(action)
+    time.sleep(delay_s)
+    t_request = time.monotonic()
+    reply = stack.estop(timeout_s=30.0)
+    t_answer = time.monotonic()
+    pending.result(30.0)
+    return reply, t_request, t_answer
+
+
+def test_estop_during_a_slow_release_mode_ends_damped_on_the_robot(stack_factory) -> None:
+    """The issue's scenario: ReleaseMode takes 2 s, the e-stop comes 1 s into LOW_LEVEL entry."""
+    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_RELEASE_MODE): 2.0}})
+    assert stack.set_mode("high_level").success
+    with ThreadPoolExecutor(1) as pool:
+        reply, t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"), 1.0)
+    assert reply.success, reply.message
+    events = _assert_damped_from(stack, t_answer)
+    # the race really happened: the ReleaseMode landed after the e-stop's first Damp, and was overridden
+    first_damp = next(e["t"] for e in requests(events) if is_damp(e) and e["t"] >= t_request)
+    release_landed = next(e["t"] for e in requests(events, api_ids.MS_RELEASE_MODE, kind="done"))
+    assert release_landed > first_damp
+    released = [s for s in states(events) if s["t"] > first_damp and not s["svc"]]
+    assert released, "the robot was never released: the scenario exercised nothing"
+    reselect = [e for e in requests(events, api_ids.MS_SELECT_MODE) if e["t"] > released[0]["t"]]
+    assert reselect and any(is_damp(e) and e["t"] > reselect[0]["t"] for e in requests(events))
+    print(f"e-stop answered {t_answer - t_request:.2f} s after the request; ReleaseMode landed "
+          f"{release_landed - first_damp:.2f} s after the first Damp")
+
+
+def test_estop_during_a_slow_select_mode_ends_damped_on_the_robot(stack_factory) -> None:
+    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
+    assert stack.set_mode("low_level").success
+    with ThreadPoolExecutor(1) as pool:
+        reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("high_level"), 1.0)
+    assert reply.success, reply.message
+    _assert_damped_from(stack, t_answer)
+
+
+def test_estop_during_a_slow_check_mode_ends_damped_on_the_robot(stack_factory) -> None:
+    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_CHECK_MODE): 1.0}})
+    assert stack.set_mode("high_level").success
+    with ThreadPoolExecutor(1) as pool:
+        reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"), 0.5)
+    assert reply.success, reply.message
+    _assert_damped_from(stack, t_answer)
+
+
+def test_a_loco_command_racing_the_estop_is_followed_by_a_redamp(stack_factory) -> None:
+    """StandUp (accepted from Damp) takes 1.5 s inside the robot; the e-stop's Damps land first."""
+    stack = stack_factory(node_params=("rpc_timeout_s:=3.0",))  # the StandUp's reply comes back in time
+    assert stack.set_mode("high_level").success
+    assert stack.loco("damp").success
+    assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 1, 3.0)
+    # the StandUp is slow; everything after it (the e-stop's Damps) is fast
+    stack.set_faults({"delay_s": {str(api_ids.LOCO_SET_FSM_ID): 1.5}})
+    with ThreadPoolExecutor(1) as pool:
+        pending = pool.submit(stack.loco, "stand_up")
+        assert wait_until(lambda: any(e["p"] == '{"data": 4}' for e in requests(stack.record.events(),
+                                                                                  api_ids.LOCO_SET_FSM_ID)), 3.0)
+        stack.set_faults({})
+        t_request = time.monotonic()
+        reply = stack.estop(timeout_s=30.0)
+        t_answer = time.monotonic()
+        pending.result(30.0)
+    assert reply.success, reply.message
+    events = _assert_damped_from(stack, t_answer)
+    stood = [s for s in states(events) if s["t"] > t_request and s["fsm"] == 4]
+    assert stood, "the StandUp never landed after the e-stop: the scenario exercised nothing"
+    assert any(is_damp(e) and e["t"] > stood[0]["t"] for e in requests(events)), "no Damp after the late StandUp"
+
+
+def test_another_program_undamping_the_robot_is_overridden_within_1_s(stack_factory) -> None:
+    stack = stack_factory()
+    assert stack.estop().success
+    other = _other_program()
+    other.wait_ready(10.0)
+    t_other = time.monotonic()
+    other.set_fsm_id(4)  # another program stands the robot up after the e-stop
+    assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 1 and time.monotonic() - t_other > 0.05, 3.0)
+    events = stack.record.events()
+    left = next(s for s in states(events) if s["t"] > t_other and s["fsm"] != 1)
+    back = next(s for s in states(events) if s["t"] > left["t"] and damped(s))
+    print(f"robot out of damping for {back['t'] - left['t']:.3f} s")
+    assert back["t"] - left["t"] < 1.0
+    assert "EMERGENCY re-asserted" in "\n".join(stack.node.lines)
+
+
+def test_no_move_reaches_the_robot_after_the_estop(stack_factory) -> None:
+    """A teleop keeps publishing through the e-stop: nothing but Damp after the e-stop's Damp."""
+    stack = stack_factory()
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    with ThreadPoolExecutor(1) as pool:
+        driving = pool.submit(stack.drive, 0.4, 3.0, rate_hz=100.0)
+        time.sleep(1.5)
+        t_request = time.monotonic()
+        assert stack.estop().success
+        driving.result(10.0)
+    events = stack.record.events(since=t_request)
+    damps = [e for e in requests(events) if is_damp(e)]
+    assert damps
+    # after the first Damp that the e-stop sent once it registered (the second of the e-stop), no Move
+    # (a StopMove, SetVelocity 0 0 0, may still come: it moves nothing)
+    cut = damps[1]["t"] if len(damps) > 1 else damps[0]["t"]
+    late = [(e["t"] - cut, e["p"]) for e in requests(events, api_ids.LOCO_SET_VELOCITY)
+            if e["t"] > cut and any(velocity_of(e))]
+    assert late == [], late
+    moves = requests(stack.record.events(), api_ids.LOCO_SET_VELOCITY)
+    assert len(moves) > 20, "no Move before the e-stop: the scenario exercised nothing"
+
+
+_OTHER: list = []
+
+
+def _other_program():
+    """An SDK loco client in this process (kept for the session: see support.sim_bridge's pitfall)."""
+    if not _OTHER:
+        from g1_mode_manager.sdk.loco_client import LocoClient
+
+        _OTHER.append(LocoClient(1.0))
+    return _OTHER[0]
