@@ -1,0 +1,284 @@
+"""Command streams that can never leave the robot unsafe, judged by what the sim received (its record).
+
+The real node against the real sim bridge, which records every request, frame and state change with
+CLOCK_MONOTONIC receive times (``--record``). Every decisive assertion reads that record.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import pty
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+import pytest
+from g1_mode_manager_msgs.msg import JointCommand
+from geometry_msgs.msg import Twist
+from sensor_msgs.msg import JointState
+
+from g1_mode_manager.protocol import api_ids
+from support.mode_manager import start_mode_manager, wait_until
+from support.processes import ManagedProcess
+from support.sim_record import SimRecord, velocity_of
+
+from .conftest import Stack
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+SET_VELOCITY = api_ids.LOCO_SET_VELOCITY
+ARM_STEP = 0.02 / 2.0 + 1e-6  # arm_ramp_time_s 2 s at arm_rate_hz 50: the largest change of one frame
+MOVE_STEP = 1.5 * 0.05 + 1e-6  # max_ax 1.5 m/s^2 over the 20 Hz tick: the largest change of one acknowledged Move
+
+
+@pytest.fixture
+def recorded(stack_factory) -> Callable[..., tuple[Stack, SimRecord]]:
+    """factory(*node_params) -> (stack, the sim's record)."""
+
+    def factory(*params: str) -> tuple[Stack, SimRecord]:
+        stack = stack_factory(node_params=params)
+        return stack, stack.record
+
+    return factory
+
+
+@contextmanager
+def publishing(publish: Callable[[], None], rate_hz: float) -> Iterator[None]:
+    """Call ``publish`` at ``rate_hz`` in a thread while the body runs."""
+    stop = threading.Event()
+
+    def run() -> None:
+        while not stop.is_set():
+            publish()
+            stop.wait(1.0 / rate_hz)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(2.0)
+
+
+def _publisher(stack: Stack, msg_type, topic: str):
+    pub = stack.ros.node.create_publisher(msg_type, topic, 10)
+    assert wait_until(lambda: pub.get_subscription_count() > 0, 10.0)
+    return pub
+
+
+def _twist(vx: float) -> Twist:
+    msg = Twist()
+    msg.linear.x = vx
+    return msg
+
+
+def _stall(proc: ManagedProcess, seconds: float) -> None:
+    """Freeze the node process (a scheduling stall far beyond any tick period)."""
+    os.kill(proc.proc.pid, signal.SIGSTOP)
+    time.sleep(seconds)
+    os.kill(proc.proc.pid, signal.SIGCONT)
+
+
+def _frames(record: SimRecord, topic: str, since: float = float("-inf")) -> list[dict]:
+    return [e for e in record.events(since) if e["k"] == "frame" and e["topic"] == topic]
+
+
+def _moves(record: SimRecord, kind: str = "req", since: float = float("-inf")) -> list[dict]:
+    return [e for e in record.events(since) if e["k"] == kind and e.get("api") == SET_VELOCITY]
+
+
+def _is_stop(event: dict) -> bool:
+    return velocity_of(event) == [0.0, 0.0, 0.0]
+
+
+def _start_walking(stack: Stack) -> None:
+    r = stack.set_mode("high_level")
+    assert r.success, r.message
+    r = stack.loco("start")
+    assert r.success, r.message
+    assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 500, 5.0)
+
+
+# --- lowcmd ------------------------------------------------------------------------------------------
+def test_leaving_low_level_leaves_the_robot_holding_a_damping_frame_for_idle_and_estop(recorded) -> None:
+    stack, record = recorded()
+    low = _publisher(stack, JointCommand, "/g1_mode_manager/lowcmd")
+    stiff = JointCommand(name=["left_knee_joint", "right_knee_joint"], q=[0.5, 0.5], kp=[100.0, 100.0],
+                         kd=[2.0, 2.0])
+    for exit_to in ("idle", "estop"):
+        assert stack.set_mode("low_level").success
+        with publishing(lambda: low.publish(stiff), 200.0):  # a user stream that does not stop by itself
+            assert wait_until(lambda: any(f["kp_max"] == 100.0 for f in _frames(record, "lowcmd")), 5.0)
+            t_exit = time.monotonic()
+            r = stack.estop() if exit_to == "estop" else stack.set_mode("idle")
+            assert r.success, r.message
+            time.sleep(0.5)  # the stream goes on after the mode changed
+        received = [f for f in _frames(record, "lowcmd", t_exit) if f["ok"]]
+        kps = [f["kp_max"] for f in received]
+        first_damping = kps.index(0.0)  # the exit's damping frames arrived ...
+        assert all(kp == 0.0 for kp in kps[first_damping:]), f"{exit_to}: user frame after the damping: {kps}"
+        assert kps[-1] == 0.0  # ... and the frame the motor drivers hold is a damping one
+        print(f"{exit_to}: {first_damping} user frames then {len(kps) - first_damping} damping frames taken")
+    damp_sent = [e["t"] for e in record.events() if e["k"] == "req" and e.get("api") == api_ids.LOCO_SET_FSM_ID]
+    select = [e["t"] for e in record.events() if e["k"] == "req" and e.get("api") == api_ids.MS_SELECT_MODE]
+    damping = [f["t"] for f in _frames(record, "lowcmd", damp_sent[0]) if f["ok"] and f["kp_max"] == 0.0]
+    assert damping and damping[0] < select[-1]  # e-stop: damped in debug mode before the service came back
+
+
+# --- arm_sdk ---------------------------------------------------------------------------------------
+def _arm_publisher(stack: Stack) -> Callable[[], None]:
+    arm = _publisher(stack, JointState, "/g1_mode_manager/arm_cmd")
+    return lambda: arm.publish(JointState(name=["left_shoulder_pitch_joint"], position=[-1.0]))
+
+
+def _weight_jumps(frames: list[dict]) -> list[tuple[float, float]]:
+    ws = [f["w"] for f in frames]
+    return [(a, b) for a, b in itertools.pairwise(ws) if abs(b - a) > ARM_STEP]
+
+
+def test_arm_weight_ramps_only_while_the_robot_stands_and_starts_from_zero(recorded) -> None:
+    stack, record = recorded()
+    assert stack.set_mode("high_level").success
+    assert stack.loco("damp").success  # the robot sinks, damped: it ignores arm_sdk
+    publish = _arm_publisher(stack)
+    with publishing(publish, 20.0):
+        time.sleep(3.0)  # longer than the 2 s ramp
+        r = stack.loco("stand_up")
+        assert r.success, r.message
+        t_up = time.monotonic()
+        assert wait_until(lambda: any(f["ok"] for f in _frames(record, "arm_sdk", t_up)), 10.0)
+        time.sleep(1.0)
+    taken = [f for f in _frames(record, "arm_sdk") if f["ok"]]
+    print(f"first weights the standing robot took: {[round(f['w'], 3) for f in taken[:5]]}")
+    assert taken[0]["w"] <= ARM_STEP, "the robot got a weight ramped while it ignored arm_sdk"
+    assert not _weight_jumps(taken)
+
+
+def test_arm_weight_never_jumps_freezes_on_link_loss_and_ramps_out_at_shutdown(recorded) -> None:
+    stack, record = recorded()
+    assert stack.set_mode("high_level").success
+    publish = _arm_publisher(stack)
+    with publishing(publish, 20.0):
+        assert wait_until(lambda: any(f["w"] == 1.0 for f in _frames(record, "arm_sdk")), 6.0)
+        stack.set_faults({"pause_state": True})  # the robot stops publishing its state
+        t_lost = time.monotonic()
+        time.sleep(1.5)
+        stack.set_faults({})
+        during = _frames(record, "arm_sdk", t_lost + 0.6)  # the link timeout is 0.5 s
+        time.sleep(0.5)
+        _stall(stack.node, 0.5)
+        time.sleep(1.0)
+        t_stop = time.monotonic()
+        stack.node.proc.send_signal(signal.SIGINT)  # shutdown while arm commands still arrive
+        stack.node.proc.wait(15.0)
+    frames = _frames(record, "arm_sdk")
+    print(f"{len(frames)} arm_sdk frames; during link loss: {sorted({f['w'] for f in during})}; "
+          f"last weights {[round(f['w'], 3) for f in frames[-3:]]}")
+    assert all(f["w"] == 1.0 for f in during), "the weight moved while the robot could not be watched"
+    assert not _weight_jumps(frames), _weight_jumps(frames)
+    assert frames[-1]["w"] == 0.0 and frames[-1]["t"] > t_stop  # the arms were handed back before exit
+    assert stack.node.proc.returncode == 0
+
+
+# --- cmd_vel ---------------------------------------------------------------------------------------
+def test_move_ramp_counts_only_acknowledged_moves_and_shutdown_stops_the_robot(recorded) -> None:
+    stack, record = recorded()
+    assert stack.set_mode("high_level").success  # lock stand (fsm 4): the robot refuses Move
+    pub = _publisher(stack, Twist, "/cmd_vel")
+    with publishing(lambda: pub.publish(_twist(0.8)), 20.0):
+        time.sleep(1.5)
+        r = stack.loco("start")
+        assert r.success, r.message
+        time.sleep(0.2)
+        _stall(stack.node, 0.5)
+        time.sleep(1.5)
+        stack.node.proc.send_signal(signal.SIGINT)
+        stack.node.proc.wait(15.0)
+    done = [e for e in _moves(record, "done") if e["code"] == 0]
+    vx = [velocity_of(e)[0] for e in done]
+    print(f"acknowledged Moves: {[round(v, 3) for v in vx[:6]]} ... {[round(v, 3) for v in vx[-3:]]}")
+    assert vx[0] <= MOVE_STEP, "the first Move the robot took was not one step from standstill"
+    assert all(b - a <= MOVE_STEP for a, b in itertools.pairwise(vx)), vx
+    assert _is_stop(_moves(record)[-1]), "no StopMove at shutdown: the robot walks on"
+
+
+def test_unanswered_moves_and_stop_moves_end_in_a_stop_move_the_robot_received(recorded) -> None:
+    stack, record = recorded()
+    _start_walking(stack)
+    pub = _publisher(stack, Twist, "/cmd_vel")
+    # A Move executed but answered too late (rpc_timeout_s 1 s): the relay must count it as moving.
+    stack.set_faults({"delay_s": {str(SET_VELOCITY): 1.3}})
+    with publishing(lambda: pub.publish(_twist(0.5)), 20.0):
+        time.sleep(0.3)
+    t_quiet = time.monotonic()
+    assert wait_until(lambda: any(_is_stop(e) for e in _moves(record, since=t_quiet)), 6.0), \
+        "a timed-out Move was never followed by a StopMove"
+    stack.set_faults({})
+    time.sleep(2.0)
+    # A StopMove that is lost: sent again until the robot answers it.
+    with publishing(lambda: pub.publish(_twist(0.5)), 20.0):
+        time.sleep(1.0)
+        stack.set_faults({"drop": [SET_VELOCITY]})
+    time.sleep(1.6)  # the watchdog's StopMove is dropped
+    t_back = time.monotonic()
+    stack.set_faults({})
+    assert wait_until(lambda: any(_is_stop(e) for e in _moves(record, "done", t_back)), 6.0), \
+        "a lost StopMove was never sent again"
+
+
+def test_move_duration_longer_than_two_seconds_is_refused(sdk_domain: int) -> None:
+    # A continuous Move (864000 s) outlives the node: the robot would walk on after a crash.
+    with pytest.raises(RuntimeError, match="move_duration_s"):
+        node = start_mode_manager(sdk_domain, "move_duration_s:=1000000.0")
+        node.stop()
+
+
+def test_g1ctl_drive_stops_publishing_without_keys_and_sub_dead_band_is_not_sent(recorded) -> None:
+    stack, record = recorded()
+    _start_walking(stack)
+    master, slave = pty.openpty()
+    tool = subprocess.Popen([sys.executable, "-m", "g1_mode_manager.cli.main", "drive"], stdin=slave,
+                            stdout=slave, stderr=slave, start_new_session=True)
+    os.close(slave)
+    drained = threading.Thread(target=lambda: _drain(master), daemon=True)
+    drained.start()
+    try:
+        time.sleep(3.0)  # its ROS node discovers the mode manager
+        for _ in range(10):  # a held key, repeating
+            os.write(master, b"w")
+            time.sleep(0.05)
+        t_key = time.monotonic()
+        assert wait_until(lambda: any(not _is_stop(e) for e in _moves(record, since=t_key - 0.5)), 3.0)
+        assert wait_until(lambda: any(_is_stop(e) for e in _moves(record, "done", t_key)), 4.0), \
+            "the robot was never stopped: g1ctl drive keeps publishing with no key pressed"
+        stop_at = next(e["t"] for e in _moves(record, "done", t_key) if _is_stop(e))
+        assert tool.poll() is None  # the tool still runs: it simply went silent
+        print(f"StopMove received {stop_at - t_key:.2f} s after the last key")
+    finally:
+        os.write(master, b"\x03")  # its quit key (the pty is not its controlling terminal)
+        try:
+            tool.wait(10.0)
+        except subprocess.TimeoutExpired:
+            tool.kill()
+            tool.wait(5.0)
+        os.close(master)
+    pub = _publisher(stack, Twist, "/cmd_vel")
+    t_creep = time.monotonic()
+    with publishing(lambda: pub.publish(_twist(0.05)), 20.0):  # below the robot's dead band
+        time.sleep(2.0)
+    sent = _moves(record, since=t_creep)
+    assert len(sent) <= 1, f"{len(sent)} useless sub-threshold Moves"
+
+
+def _drain(fd: int) -> None:
+    try:
+        while os.read(fd, 4096):
+            pass
+    except OSError:
+        pass
