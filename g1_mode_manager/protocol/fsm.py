@@ -18,14 +18,15 @@ class FsmId(IntEnum):
     LIE_TO_STAND = 702
     SQUAT_TO_STAND = 706
     RUN = 801
+    RUN_29DOF = 802  # run mode of newer 29-dof firmware (SetFsmId(500) is ignored there; use 501)
 
 
 #: Every fsm id SetFsmId accepts; others answer 7302.
 VALID_FSM_IDS: Final = frozenset(int(f) for f in FsmId)
 #: States in which the controller stands or walks (arm_sdk works, velocities act where walking).
 STANDING_FSM_IDS: Final = frozenset({FsmId.STAND_UP, FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST,
-                                     FsmId.LIE_TO_STAND, FsmId.SQUAT_TO_STAND, FsmId.RUN})
-WALKING_FSM_IDS: Final = frozenset({FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST, FsmId.RUN})
+                                     FsmId.LIE_TO_STAND, FsmId.SQUAT_TO_STAND, FsmId.RUN, FsmId.RUN_29DOF})
+WALKING_FSM_IDS: Final = frozenset({FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST, FsmId.RUN, FsmId.RUN_29DOF})
 
 
 class FsmMode(IntEnum):

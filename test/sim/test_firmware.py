@@ -19,7 +19,7 @@ from g1_sim.firmware import rules
 # --- rule table (no physics) ---------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("requested", [-1, 5, 199, 802, 1000])
+@pytest.mark.parametrize("requested", [-1, 5, 199, 803, 1000])
 def test_unknown_fsm_ids_are_invalid(requested: int) -> None:
     assert rules.set_fsm_verdict(FsmId.STAND_UP, requested, dynamic=False) == ERR_INVALID_FSM_ID
 
@@ -46,6 +46,14 @@ def test_walking_starts_only_from_a_stand(walk: int) -> None:
         assert rules.set_fsm_verdict(current, walk, dynamic=False) == ERR_REFUSED_IN_STATE
     for current in STANDING_FSM_IDS:
         assert rules.set_fsm_verdict(current, walk, dynamic=False) == OK
+
+
+def test_802_is_accepted_wherever_801_is() -> None:
+    for current in VALID_FSM_IDS:
+        for dynamic in (False, True):
+            assert rules.set_fsm_verdict(current, 802, dynamic=dynamic) == rules.set_fsm_verdict(
+                current, FsmId.RUN, dynamic=dynamic)
+    assert rules.set_velocity_verdict(802) == OK
 
 
 def test_zero_torque_is_allowed_from_anywhere_static() -> None:
@@ -90,7 +98,7 @@ def test_boots_standing_in_lock_stand_with_ai_selected(sim) -> None:
 
 @pytest.mark.sim
 def test_sim_answers_invalid_ids_and_velocity_outside_walking(sim) -> None:
-    assert sim.set_fsm_id(802) == ERR_INVALID_FSM_ID
+    assert sim.set_fsm_id(803) == ERR_INVALID_FSM_ID
     assert sim.set_velocity(0.5, 0.0, 0.0, 1.0) == ERR_REFUSED_IN_STATE
     assert sim.get_fsm_id() == (OK, FsmId.STAND_UP)
 

@@ -3,8 +3,7 @@
 Pure Python (no physics), so the table can be read in one screen and unit-tested fast. Decisions made
 where the robot's behaviour is not documented:
 
-* 802 (run on newer 29-dof firmware) is answered 7302 like any id outside ``protocol.fsm.FsmId``:
-  the sim mirrors the protocol definitions, which name 801 only.
+* 802 (run on newer 29-dof firmware) is accepted wherever 801 is and walks like it.
 * 702 (lie-to-stand) and 706 (squat-to-stand) stand the robot up like 4 and take the same origins.
 * Squat (2) and sit (3) are reached from standing (or from each other), not from damping.
 * Requesting the current fsm id again is accepted and changes nothing.
