@@ -7,7 +7,7 @@ STAMPS := $(VENV)/.stamps
 
 MSG_SOURCES := $(shell find msg_defs -type f)
 
-.PHONY: setup run test lint bench clean
+.PHONY: setup run test lint bench chaos clean
 
 setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets
 
@@ -42,6 +42,17 @@ run: setup
 
 bench: setup
 	$(BIN)/python -m bench.run
+
+# The chaos suite on a longer randomized batch: `make chaos N=500 SEED=1`. Its last line is
+# `chaos: N scenarios, V violations`; each violation names its seed (replay: N=1 SEED=<seed>).
+N ?= 100
+SEED ?= $(shell date +%s)
+chaos: setup
+	@rm -f .venv/chaos_summary.txt
+	-G1_CHAOS_N=$(N) G1_CHAOS_SEED=$(SEED) G1_CHAOS_SUMMARY=.venv/chaos_summary.txt \
+		$(BIN)/python -m pytest -q test/chaos
+	@cat .venv/chaos_summary.txt
+	@tail -n 1 .venv/chaos_summary.txt | grep -q ' 0 violations$$'
 
 clean:
 	rm -rf $(VENV) build *.egg-info
