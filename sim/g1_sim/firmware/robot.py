@@ -51,7 +51,7 @@ from g1_sim.physics.controllers import (
     StandUpSequence,
     ZeroTorqueController,
 )
-from g1_sim.physics.model import DEFAULT_POSE, G1Model, build_model, standing_qpos
+from g1_sim.physics.model import DEFAULT_POSE, STAND_HEIGHT_RANGE_M, G1Model, build_model, standing_qpos
 from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
 
 log = logging.getLogger("g1_sim.firmware")
@@ -64,6 +64,8 @@ DEFAULT_STAND_HEIGHT_M: Final = 0.75
 DEFAULT_SWING_HEIGHT_M: Final = 0.08
 #: The policy was trained on commands in [-1, 1] (ONNX metadata), so faster requests are clamped.
 POLICY_MAX_COMMAND: Final = 1.0
+#: SetStandHeight's HighStand value (LowStand is 0): a uint32 all ones, meaning "the highest".
+HIGH_STAND: Final = 0xFFFFFFFF
 #: Fall detector: pelvis below this and tilted more than FALL_TILT_RAD.
 FALL_HEIGHT_M: Final = 0.4
 FALL_TILT_RAD: Final = 0.8
@@ -182,6 +184,7 @@ class SimG1:
                 if self._steps % self._decimation == 0:
                     self._tick()
                 self._loco.arm_weight = self._arm.weight
+                self._stance.balancing = self._arm.weight > 0.0
                 tau = self._ctrl.torques(self._s)
                 if self._arm.weight > 0.0 and self._balanced():
                     tau = self._arm.blend(tau, self._s)
@@ -333,11 +336,17 @@ class SimG1:
             return OK
 
     def set_stand_height(self, h: float) -> int:
-        """Stored and reported only: the policy has no height input."""
+        """Pelvis height of lock stand in m, reached by bending the knees; HighStand (0xFFFFFFFF) is the
+        highest, LowStand (0) the lowest, anything else is clamped to :data:`STAND_HEIGHT_RANGE_M`.
+        Walking ignores it (the policy has no height input). The value set is what Get reports."""
         with self._lock:
             if not self._service:
                 return ERR_SERVER_API_NOT_IMPL
+            if not np.isfinite(h):
+                return ERR_SERVER_API_PARAMETER
             self._stand_height = float(h)
+            low, high = STAND_HEIGHT_RANGE_M
+            self._stance.height = high if h >= HIGH_STAND else float(np.clip(h, low, high))
             return OK
 
     def get_stand_height(self) -> tuple[int, float]:

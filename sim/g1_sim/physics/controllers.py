@@ -151,7 +151,7 @@ class StanceController:
 
     The legs keep the pose they had when the stance took over (feet stay where they are, no stepping),
     shifted along the knee-bend family of :class:`~g1_sim.physics.model.StandPoses` to the requested
-    pelvis height; waist and arms go to the default pose. Targets move at most ``rate`` rad/s, so a
+    pelvis height; waist and arms go to the default pose. Targets move in a straight line at most ``rate`` rad/s, so a
     height change or a takeover from walking is smooth. A slow integral term on legs and waist removes
     the static error gravity leaves under PD, so the pelvis does not sag. Torques are clipped to the G1
     effort limits.
@@ -160,7 +160,9 @@ class StanceController:
     over the feet by leaning both legs about the ankles (ankle pitch/roll one way, hip pitch/roll the
     other, so pelvis and feet keep their orientation), an integrator on the horizontal error. Tuned with
     ``bench/arm_balance.py``: without it, arms raised forward at arm_sdk's kp 60 bend the waist and the
-    robot tips over its toes.
+    robot tips over its toes. The servo runs only while ``balancing`` (the firmware sets it while arm_sdk
+    moves the upper body): the plain hold stands still without it, and at straight knees (HighStand)
+    the servo set up a slow rocking of its own.
     """
 
     def __init__(self, g1: G1Model, *, kp: np.ndarray = STANCE_KP, kd: np.ndarray = STANCE_KD,
@@ -182,6 +184,7 @@ class StanceController:
         self.lead_s = lead_s
         self.lean_limit = lean_limit
         self.lean = np.zeros(2)  # (forward, sideways) lean of the legs about the ankles, rad
+        self.balancing = False
         self._feet = [g1.model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
         self._pelvis = g1.pelvis_body
 
@@ -208,10 +211,11 @@ class StanceController:
         return self._captured + (self.poses.pose(self.height) - self._reference)
 
     def torques(self, s: Sensed) -> np.ndarray:
-        step = self.rate * TIMESTEP_S
-        self.q_des += np.clip(self.goal() - self.q_des, -step, step)
-        self.lean = np.clip(self.lean + self.com_gain * self.com_error(s) * TIMESTEP_S * (1.0, -1.0),
-                            -self.lean_limit, self.lean_limit)
+        delta = self.goal() - self.q_des  # move along the straight line, so hip + knee + ankle stay balanced
+        self.q_des += delta * min(1.0, self.rate * TIMESTEP_S / max(float(np.abs(delta).max()), 1e-9))
+        if self.balancing:
+            self.lean = np.clip(self.lean + self.com_gain * self.com_error(s) * TIMESTEP_S * (1.0, -1.0),
+                                -self.lean_limit, self.lean_limit)
         q_des = self.q_des.copy()
         q_des[[4, 10]] += self.lean[0]  # ankle pitch +: the legs lean back, the pelvis moves back
         q_des[[0, 6]] -= self.lean[0]

@@ -147,11 +147,17 @@ class StandPoses:
         feet = [model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
         pelvis = model.body(PELVIS_BODY).id
 
+        soles = [g for g in range(model.ngeom) if model.geom_bodyid[g] in feet and model.geom_contype[g]]
+
         def com_ahead(pose: np.ndarray) -> tuple[float, float]:
-            data.qpos[:] = standing_qpos(model, pose)
+            """(centre of mass ahead of the ankles, pelvis height over the soles) of ``pose``, m."""
+            data.qpos[:] = model.qpos0
+            data.qpos[0:3] = (0.0, 0.0, 1.0)
+            data.qpos[QPOS0 : QPOS0 + NUM_JOINTS] = pose
             mujoco.mj_forward(model, data)
             mid = 0.5 * (data.xpos[feet[0]] + data.xpos[feet[1]])
-            return float(data.subtree_com[pelvis][0] - mid[0]), float(data.qpos[2])
+            sole = min(data.geom_xpos[g][2] - _geom_half_height(model, data, g) for g in soles)
+            return float(data.subtree_com[pelvis][0] - mid[0]), 1.0 - sole
 
         default_share = -DEFAULT_POSE[0] / DEFAULT_POSE[3]
         target, self.default_height = com_ahead(DEFAULT_POSE)

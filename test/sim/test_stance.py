@@ -1,0 +1,116 @@
+"""Lock stand holds like the robot's (no sag, no stepping), stand height bends the knees, and the stock
+Unitree arm_sdk program does not topple the robot standing, walking or after Squat2StandUp.
+Runs MuJoCo: run under the sim CPU lock."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from g1_mode_manager.protocol.api_ids import MOVE_CONTINUOUS_DURATION_S, OK
+from g1_mode_manager.protocol.fsm import FsmId, FsmMode
+from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, JOINT_INDEX
+from g1_sim.firmware import SimG1
+from g1_sim.firmware.robot import HIGH_STAND
+
+pytestmark = pytest.mark.sim
+
+ARMS: list[int] = list(ARM_SDK_JOINTS)
+
+
+def run(sim: SimG1, seconds: float) -> None:
+    sim.step(round(seconds / sim.dt))
+
+
+def reference_arm_sdk(sim: SimG1) -> float:
+    """Unitree's stock arm_sdk program: weight 1 at once with targets = measured pose, arms out sideways
+    (shoulder roll +/-90 deg) and elbows 90 deg over 6 s, waist at 0, back over 6 s, weight out over 3 s;
+    kp 60, kd 1.5, 50 Hz. Returns the lowest pelvis height seen (m)."""
+    start = sim.lowstate().q[ARMS].copy()
+    goal = start.copy()
+    for joint, value in (("left_shoulder_roll", np.pi / 2), ("right_shoulder_roll", -np.pi / 2),
+                         ("left_elbow", np.pi / 2), ("right_elbow", np.pi / 2), ("waist_yaw", 0.0),
+                         ("waist_roll", 0.0), ("waist_pitch", 0.0)):
+        goal[JOINT_INDEX[f"{joint}_joint"] - ARMS[0]] = value
+    zeros, kp, kd = np.zeros(len(ARMS)), np.full(len(ARMS), 60.0), np.full(len(ARMS), 1.5)
+    lowest = float(sim.base_pose().position[2])
+    frames = [(start + a * (goal - start), 1.0) for a in np.linspace(0.02, 1.0, 300)]
+    frames += [(goal + a * (start - goal), 1.0) for a in np.linspace(0.02, 1.0, 300)]
+    frames += [(start, w) for w in np.linspace(1.0 - 1 / 150, 0.0, 150)]
+    for q, weight in frames:
+        sim.apply_arm_sdk(q, zeros, zeros, kp, kd, weight)
+        run(sim, 0.02)
+        lowest = min(lowest, float(sim.base_pose().position[2]))
+    return lowest
+
+
+def test_idle_lock_stand_holds_for_120_s() -> None:
+    sim = SimG1()
+    p0 = sim.base_pose().position.copy()
+    run(sim, 120.0)
+    assert np.all(np.abs(sim.base_pose().position - p0) < 0.01)  # no sag, no stepping, no drift
+    assert sim.get_fsm_id() == (OK, FsmId.STAND_UP)
+
+
+def test_reference_arm_sdk_in_lock_stand() -> None:
+    sim = SimG1()
+    assert reference_arm_sdk(sim) > 0.6
+    assert sim.arm_sdk_weight == 0.0
+    assert not sim.fallen
+
+
+def test_reference_arm_sdk_while_walking_then_stop_and_lock_stand() -> None:
+    sim = SimG1()
+    assert sim.set_fsm_id(FsmId.START) == OK
+    assert sim.set_velocity(0.4, 0.0, 0.0, MOVE_CONTINUOUS_DURATION_S) == OK
+    run(sim, 1.0)
+    x0 = sim.base_pose().position[0]
+    assert reference_arm_sdk(sim) > 0.6
+    assert sim.base_pose().position[0] - x0 > 3.0  # kept walking (~0.35 m/s over 15 s)
+    assert sim.set_velocity(0.0, 0.0, 0.0) == OK  # StopMove
+    run(sim, 1.5)
+    assert sim.get_fsm_mode() == (OK, FsmMode.STATIC)
+    assert sim.set_fsm_id(FsmId.STAND_UP) == OK
+    run(sim, 1.0)
+    p0 = sim.base_pose().position.copy()
+    run(sim, 3.0)
+    assert np.all(np.abs(sim.base_pose().position - p0) < 0.01)  # locked where it stopped
+    assert p0[2] > 0.7
+
+
+def test_reference_arm_sdk_after_squat_to_stand() -> None:
+    sim = SimG1()
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    run(sim, 2.0)
+    assert sim.set_fsm_id(FsmId.SQUAT_TO_STAND) == OK
+    run(sim, 4.0)
+    assert sim.standing_balanced
+    assert reference_arm_sdk(sim) > 0.6
+    assert not sim.fallen
+
+
+def test_stand_height_bends_the_knees_within_range() -> None:
+    sim = SimG1()
+    assert sim.set_stand_height(0) == OK  # LowStand
+    run(sim, 3.0)
+    assert abs(sim.base_pose().position[2] - 0.60) < 0.02
+    assert sim.set_stand_height(0.7) == OK
+    run(sim, 2.0)
+    assert abs(sim.base_pose().position[2] - 0.70) < 0.02
+    assert sim.get_stand_height() == (OK, 0.7)
+    assert sim.set_stand_height(HIGH_STAND) == OK
+    run(sim, 2.0)
+    assert abs(sim.base_pose().position[2] - 0.78) < 0.02
+    assert not sim.fallen
+
+
+def test_802_walks_and_takes_arm_sdk() -> None:
+    sim = SimG1()
+    assert sim.set_fsm_id(802) == OK
+    assert sim.set_velocity(0.5, 0.0, 0.0, MOVE_CONTINUOUS_DURATION_S) == OK
+    sim.apply_arm_sdk(sim.lowstate().q[ARMS], *([np.zeros(len(ARMS))] * 2), np.full(len(ARMS), 60.0),
+                      np.full(len(ARMS), 1.5), 1.0)
+    assert sim.arm_sdk_weight == 1.0
+    run(sim, 3.0)
+    assert sim.base_pose().position[0] > 0.8
+    assert not sim.fallen
