@@ -12,9 +12,11 @@ last line of a batch is `chaos: N scenarios, V violations`, with each failing se
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -40,45 +42,49 @@ NODE_PARAMS = ("rpc_timeout_s:=4.0", "select_timeout_s:=10.0", "release_timeout_
 SETTLE_S = 12.0  # after the faults clear, supervision must get the robot damped within this
 
 
+def _start_node(k: int):
+    """The node of scenario k, in a namespace of its own with its own /estop and /cmd_vel, so it can start
+    (UNINITIALIZED: it touches nothing on the robot) while scenario k-1 still runs."""
+    ns = f"/chaos{k}"
+    node = start_mode_manager(int(os.environ["G1_TEST_SDK_DOMAIN"]), *NODE_PARAMS,
+                              remaps=(f"__ns:={ns}", f"/estop:={ns}/estop", f"/cmd_vel:={ns}/cmd_vel"))
+    return ns, node
+
+
 def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
     record_path = tmp_path / "chaos_record.jsonl"
     bridge = start_sim_bridge(sdk_channels, speed=1.0, extra_args=("--record", str(record_path)))
     ros = RosClient("chaos_client")
-    current: list[Claims] = [Claims()]
-
-    def on_mode(msg: Mode) -> None:
-        claims = current[0]
-        with claims.lock:
-            claims.modes.append((time.monotonic(), msg))
-
-    ros.node.create_subscription(Mode, "/g1_mode_manager/mode", on_mode, MODE_QOS)
-    estop_pubs = {
-        "topic_reliable": ros.node.create_publisher(Bool, "/estop", 10),
-        "topic_best_effort": ros.node.create_publisher(Bool, "/estop",
-                                                       QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)),
-    }
     sim = shared_sim_status()
     sim.wait_ready(15.0)
     record = SimRecord(record_path)
     failures: list[str] = []
     latencies: list[float] = []
-    try:
-        for i in range(N):
-            seed = SEED + i
-            claims = Claims()
-            current[0] = claims
-            bad = _scenario(seed, bridge, ros, sim, record, claims, estop_pubs, latencies)
-            if bad:
-                failures.append(f"seed {seed}: " + "; ".join(bad))
-                print(f"chaos: VIOLATION seed {seed}: {bad}", flush=True)
-    finally:
-        ros.close()
-        bridge.stop()
+    started = time.monotonic()
+    with ThreadPoolExecutor(1) as starter:
+        upcoming = starter.submit(_start_node, 0)
+        try:
+            for i in range(N):
+                ns, node = upcoming.result(60.0)
+                if i + 1 < N:
+                    upcoming = starter.submit(_start_node, i + 1)
+                seed = SEED + i
+                bad = _scenario(seed, Stack(bridge, node, ros, sim, record, ns), latencies)
+                if bad:
+                    failures.append(f"seed {seed}: " + "; ".join(bad))
+                    print(f"chaos: VIOLATION seed {seed}: {bad}", flush=True)
+        finally:
+            if not upcoming.cancel():
+                with contextlib.suppress(Exception):
+                    upcoming.result(60.0)[1].stop()
+            ros.close()
+            bridge.stop()
     latencies.sort()
     if latencies:
         median = latencies[len(latencies) // 2] * 1000
-        print(f"chaos: e-stop request -> first Damp received by the robot: median {median:.2f} ms, "
+        print(f"chaos: e-stop request -> first Damp received by the robot (node connected): median {median:.2f} ms, "
               f"max {latencies[-1] * 1000:.2f} ms (n={len(latencies)})")
+    print(f"chaos: {(time.monotonic() - started) / max(N, 1):.1f} s per scenario")
     line = f"chaos: {N} scenarios, {len(failures)} violations"
     print("\n".join([*failures, line]), flush=True)
     if SUMMARY:
@@ -86,15 +92,25 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
     assert not failures, "\n".join(failures)
 
 
-def _scenario(seed, bridge, ros, sim, record, claims, estop_pubs, latencies) -> list[str]:
+def _scenario(seed: int, stack: Stack, latencies: list[float]) -> list[str]:
     p = plan(seed)
-    sim.reset()
-    node = start_mode_manager(int(os.environ["G1_TEST_SDK_DOMAIN"]), *NODE_PARAMS)
+    ros, sim, node = stack.ros, stack.sim, stack.node
+    claims = Claims()
+
+    def on_mode(msg: Mode) -> None:
+        with claims.lock:
+            claims.modes.append((time.monotonic(), msg))
+
+    mode_sub = ros.node.create_subscription(Mode, stack.name("mode"), on_mode, MODE_QOS)
+    estop_client = ros.node.create_client(Trigger, stack.name("estop"))
+    estop_topic = f"{stack.ns}/estop"
+    estop_pub = ros.node.create_publisher(Bool, estop_topic, QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+                                          if p.estop_via == "topic_best_effort" else QoSProfile(depth=10))
     try:
-        ros.wait_node_answers()
-        stack = Stack(bridge, node, ros, sim, record)
-        estop_client = ros.node.create_client(Trigger, "/g1_mode_manager/estop")  # discovered before the instant
+        sim.reset()
+        ros.wait_node_answers(f"{stack.ns}/g1_mode_manager")
         assert estop_client.wait_for_service(timeout_sec=10.0)
+        assert wait_until(lambda: estop_pub.get_subscription_count() >= 1, 10.0)
         stack.set_faults(p.faults)
         stop = threading.Event()
         t0 = time.monotonic()
@@ -106,29 +122,35 @@ def _scenario(seed, bridge, ros, sim, record, claims, estop_pubs, latencies) -> 
             reply = _call(estop_client, 40.0)
             claims.t_answer, claims.estop_success = time.monotonic(), reply.success
         else:
-            estop_pubs[p.estop_via].publish(Bool(data=True))
-            wait_until(lambda: any(m.mode == Mode.EMERGENCY for _, m in claims.modes), 5.0)
+            estop_pub.publish(Bool(data=True))
         actions.join(40.0)
         stop.set()
         stack.set_faults({})
-        wait_until(lambda: sim.get()["sport"]["fsm_id"] == 1 and sim.get()["sport"]["mode"] != "", SETTLE_S, 0.1)
-        time.sleep(0.5)
+        wait_until(lambda: _damped(sim.get()), SETTLE_S, 0.1)
+        time.sleep(0.3)
         end_state = sim.get()
-        events = record.after_last_reset()
+        events = stack.record.after_last_reset()
         first_damp = next((e["t"] for e in events if e["k"] == "req" and e["t"] >= claims.t_estop
                            and e.get("api") == 7101 and e.get("p") == '{"data": 1}'), None)
-        before = [m for t, m in claims.modes if t < claims.t_estop]
+        with claims.lock:
+            before = [m for t, m in claims.modes if t < claims.t_estop]
         connected = bool(before) and before[-1].mode != Mode.UNINITIALIZED
         if first_damp is not None and connected:  # from UNINITIALIZED the e-stop first connects (~1.5 s)
             latencies.append(first_damp - claims.t_estop)
         return judge(events, claims, end_state)
     finally:
-        if "estop_client" in locals():
-            ros.node.destroy_client(estop_client)
-        code = node.stop()
-        ros.wait_service_gone("/g1_mode_manager/set_mode")
-        if code not in (0, None):
-            print(f"chaos seed {seed}: node exited with {code}:\n{node.output()[-3000:]}")
+        t_stop = time.monotonic()
+        code = node.stop()  # before the next reset: its supervision would damp the fresh robot
+        stop_s = time.monotonic() - t_stop
+        ros.node.destroy_subscription(mode_sub)
+        ros.node.destroy_client(estop_client)
+        ros.node.destroy_publisher(estop_pub)
+        if code not in (0, None) or stop_s > 5.0:
+            print(f"chaos seed {seed}: node exited with {code} after {stop_s:.1f} s:\n{node.output()[-3000:]}")
+
+
+def _damped(status: dict) -> bool:
+    return status["sport"]["fsm_id"] == 1 and status["sport"]["mode"] != ""
 
 
 def _call(client, timeout_s: float):

@@ -28,18 +28,23 @@ class Stack:
     ros: RosClient
     sim: SimStatus
     record: SimRecord  # the robot's own record: every request, frame and state change, with receive times
+    ns: str = ""  # the node's namespace ("" = the root), e.g. "/robot_a"
+
+    def name(self, relative: str) -> str:
+        """A name of the node under test: ``name("set_mode")`` -> ``<ns>/g1_mode_manager/set_mode``."""
+        return f"{self.ns}/g1_mode_manager/{relative}"
 
     def set_mode(self, name: str, timeout_s: float = 30.0) -> SetMode.Response:
-        return self.ros.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode_name=name), timeout_s)
+        return self.ros.call(SetMode, self.name("set_mode"), SetMode.Request(mode_name=name), timeout_s)
 
     def loco(self, command: str, value: int = 0) -> LocoCommand.Response:
-        return self.ros.call(LocoCommand, "/g1_mode_manager/loco_command",
+        return self.ros.call(LocoCommand, self.name("loco_command"),
                              LocoCommand.Request(command=command, value=value))
 
     def estop(self, timeout_s: float = 30.0):
         from std_srvs.srv import Trigger
 
-        return self.ros.call(Trigger, "/g1_mode_manager/estop", Trigger.Request(), timeout_s)
+        return self.ros.call(Trigger, self.name("estop"), Trigger.Request(), timeout_s)
 
     def position(self) -> tuple[float, float, float]:
         return tuple(self.sim.get()["base"]["position"])
@@ -58,7 +63,7 @@ class Stack:
 
     def cmd_vel_publisher(self):
         if not hasattr(self, "_cmd_vel"):
-            self._cmd_vel = self.ros.node.create_publisher(Twist, "/cmd_vel", 10)
+            self._cmd_vel = self.ros.node.create_publisher(Twist, f"{self.ns}/cmd_vel", 10)
             deadline = time.monotonic() + 10.0
             while self._cmd_vel.get_subscription_count() == 0 and time.monotonic() < deadline:
                 time.sleep(0.05)
@@ -81,13 +86,14 @@ class Stack:
 
 @pytest.fixture
 def stack_factory(sdk_channels: int, tmp_path: Path) -> Iterator:
-    """factory(faults=None, node_params=()) -> Stack; everything it started is stopped after the test."""
+    """factory(faults=None, node_params=(), bridge_args=()) -> Stack; everything it started is stopped after
+    the test. ``bridge_args`` go to sim_bridge (e.g. --no-ros-publish: the sim's own /joint_states off)."""
     started: list[ManagedProcess] = []
     clients: list[RosClient] = []
 
-    def factory(faults: dict | None = None, node_params: Sequence[str] = ()) -> Stack:
+    def factory(faults: dict | None = None, node_params: Sequence[str] = (), bridge_args: Sequence[str] = ()) -> Stack:
         record = tmp_path / f"sim_record_{len(started)}.jsonl"
-        bridge = start_sim_bridge(sdk_channels, speed=1.0, faults=faults, extra_args=("--record", str(record)))
+        bridge = start_sim_bridge(sdk_channels, speed=1.0, faults=faults, extra_args=("--record", str(record), *bridge_args))
         started.append(bridge)
         node = start_mode_manager(sdk_channels, *node_params)
         started.append(node)

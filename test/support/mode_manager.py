@@ -14,11 +14,17 @@ from g1_mode_manager.cli.client import call_service
 from support.processes import ManagedProcess, python_module
 
 
-def start_mode_manager(sdk_domain: int, *params: str, ready_timeout_s: float = 30.0) -> ManagedProcess:
-    """`python -m g1_mode_manager.node.main` on loopback and the given SDK domain; waits for its ready line."""
+def start_mode_manager(sdk_domain: int, *params: str, ready_timeout_s: float = 30.0,
+                       remaps: tuple[str, ...] = ()) -> ManagedProcess:  # fmt: skip
+    """`python -m g1_mode_manager.node.main` on loopback and the given SDK domain; waits for its ready line.
+
+    ``params`` are `name:=value` parameters, ``remaps`` `from:=to` remappings (e.g. `__ns:=/robot_a`).
+    """
     args = ["--ros-args", "-p", f"dds_domain:={sdk_domain}", "-p", "network_interface:=lo"]
     for p in params:
         args += ["-p", p]
+    for r in remaps:
+        args += ["-r", r]
     proc = ManagedProcess(python_module("g1_mode_manager.node.main", *args), name="mode_manager")
     proc.wait_for_line(lambda line: "ready in UNINITIALIZED" in line, ready_timeout_s)
     return proc
