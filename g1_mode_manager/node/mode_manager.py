@@ -9,7 +9,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from g1_mode_manager_msgs.msg import JointCommand, SportModeState
 from g1_mode_manager_msgs.msg import Mode as ModeMsg
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
@@ -30,8 +30,10 @@ from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
+from g1_mode_manager.relay.head_led import HeadLed, VoicePort, parse_looks
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.periodic import PeriodicWorker
+from g1_mode_manager.relay.stamps import stamp_age_s
 
 PortFactory = Callable[[Settings], RobotPort]
 
@@ -102,7 +104,11 @@ class ModeManagerNode(Node):
                                    silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s)
         for relay in (self._lowcmd, self._arm, self._cmd_vel):  # lowcmd first: its damping frames are the urgent ones
             self.machine.add_leave_listener(relay.on_leave)
-        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10)
+        # --- issue 11: cmd_vel relative (a namespace gives each robot its own), Twist or TwistStamped ---
+        if s.cmd_vel_stamped:
+            self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, 10)
+        else:
+            self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, 10)
         self.create_subscription(JointState, "~/arm_cmd", self._on_arm_cmd, 10)
         self.create_subscription(JointCommand, "~/lowcmd", self._on_lowcmd, 10)
 
@@ -120,6 +126,24 @@ class ModeManagerNode(Node):
         self._estop.start()
         self._supervisor = PeriodicWorker("supervisor", s.supervise_rate_hz, self._supervise, self._worker_error)
         self._supervisor.start()
+
+        # --- issue 11: the head LED shows the mode. Its own worker *reads* the mode (no leave listener, no
+        # machine lock held while it talks to the robot), so a slow voice service never delays an e-stop.
+        self._head_led: HeadLed | None = None
+        self._head_led_worker: PeriodicWorker | None = None
+        if s.head_led_enabled:
+            self._head_led = HeadLed(lambda: self.machine.mode, self._voice_port, parse_looks(s.led_looks()),
+                                     self._events, announce=s.announce_modes)
+            self._head_led_worker = PeriodicWorker("head_led", s.head_led_rate_hz, self._head_led.tick,
+                                                   self._worker_error)
+            self._head_led_worker.start()
+
+        # --- issue 11: joint_states and ~/imu from rt/lowstate, decoded only when published ---
+        if s.joint_state_rate_hz > 0:
+            from g1_mode_manager.node.joint_states import LowStatePublisher
+
+            self._lowstate_pub = LowStatePublisher(self, self._port)
+            self.create_timer(1.0 / s.joint_state_rate_hz, self._lowstate_pub.publish)
         self._service_side.start()
         self._publish_mode()
         self.get_logger().info(
@@ -138,6 +162,9 @@ class ModeManagerNode(Node):
         self._estop.shutdown()
         if self._mirroring:
             self._port.set_sport_state_listener(None)
+        if self._head_led_worker is not None and self._head_led is not None:  # issue 11
+            self._head_led_worker.stop()
+            self._head_led.turn_off()
         self._port.close()
 
     # --- services ------------------------------------------------------------------------------
@@ -177,6 +204,23 @@ class ModeManagerNode(Node):
     # --- command streams -------------------------------------------------------------------------
     def _on_cmd_vel(self, msg: Twist) -> None:
         self._cmd_vel.submit(msg.linear.x, msg.linear.y, msg.angular.z)
+
+    def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
+        """issue 11: a command older than cmd_vel_timeout is dropped and counted (it would restart a
+        robot the watchdog already stopped)."""
+        age_s = stamp_age_s(self.get_clock().now().nanoseconds, msg.header.stamp.sec, msg.header.stamp.nanosec)
+        if age_s > self.settings.cmd_vel_timeout:
+            self._events.count("cmd_vel_stale_dropped")
+            self._events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout "
+                             f"{self.settings.cmd_vel_timeout:.3f} s)")
+            return
+        t = msg.twist
+        self._cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
+
+    def _voice_port(self) -> VoicePort | None:
+        """issue 11: the robot's voice service once the port is connected (ports without one: None)."""
+        voice = getattr(self._port, "voice", None)
+        return None if voice is None else voice(self.settings.voice_timeout_s)
 
     def _on_arm_cmd(self, msg: JointState) -> None:
         self._arm.submit(list(msg.name), list(msg.position))

@@ -8,7 +8,9 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.node import Node
 
 from g1_mode_manager.core.estop_policy import EstopTiming
+from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
+from g1_mode_manager.relay.head_led import DEFAULT_LOOKS
 
 
 @dataclass(frozen=True)
@@ -45,11 +47,29 @@ class Settings:
     supervise_rate_hz: float = 10.0
     estop_verify_period_s: float = EstopTiming.verify_period_s
     belief_check_period_s: float = EstopTiming.belief_period_s
+    # --- issue 11: head LED / TTS, joint states + IMU, stamped cmd_vel ---
+    head_led_enabled: bool = True
+    head_led_rate_hz: float = 10.0
+    head_led_uninitialized: str = DEFAULT_LOOKS[Mode.UNINITIALIZED]
+    head_led_idle: str = DEFAULT_LOOKS[Mode.IDLE]
+    head_led_high_level: str = DEFAULT_LOOKS[Mode.HIGH_LEVEL]
+    head_led_low_level: str = DEFAULT_LOOKS[Mode.LOW_LEVEL]
+    head_led_emergency: str = DEFAULT_LOOKS[Mode.EMERGENCY]
+    announce_modes: bool = False
+    voice_timeout_s: float = 0.5
+    joint_state_rate_hz: float = 0.0
+    cmd_vel_stamped: bool = False
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
                            total_s=self.estop_timeout_s, verify_period_s=self.estop_verify_period_s,
                            belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
+
+    def led_looks(self) -> dict[Mode, str]:
+        """The head LED table (issue 11): one 'R G B pattern period' text per mode."""
+        return {Mode.UNINITIALIZED: self.head_led_uninitialized, Mode.IDLE: self.head_led_idle,
+                Mode.HIGH_LEVEL: self.head_led_high_level, Mode.LOW_LEVEL: self.head_led_low_level,
+                Mode.EMERGENCY: self.head_led_emergency}
 
 
 _DESCRIPTIONS: dict[str, str] = {
@@ -91,17 +111,32 @@ _DESCRIPTIONS: dict[str, str] = {
     "estop_verify_period_s": "In EMERGENCY: period of CheckMode + GetFsmId re-verification of the robot, s.",
     "belief_check_period_s": "Outside EMERGENCY: period of the CheckMode that confirms the robot still matches the "
     "mode, s.",
+    "head_led_enabled": "Show the mode on the robot's head LED (voice service; a failure is counted, never fatal).",
+    "head_led_rate_hz": "Rate of the head LED worker; a colour is sent only when it changes, Hz.",
+    "head_led_uninitialized": "Head LED in UNINITIALIZED: 'R G B [solid|pulse|flash] [period_s]'.",
+    "head_led_idle": "Head LED in IDLE: 'R G B [solid|pulse|flash] [period_s]'.",
+    "head_led_high_level": "Head LED in HIGH_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
+    "head_led_low_level": "Head LED in LOW_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
+    "head_led_emergency": "Head LED in EMERGENCY: 'R G B [solid|pulse|flash] [period_s]'.",
+    "announce_modes": "Announce every mode change through the robot's speaker (TTS).",
+    "voice_timeout_s": "Timeout of one head LED or TTS call, s (the LED worker waits, nothing else does).",
+    "joint_state_rate_hz": "Rate of joint_states (sensor_msgs/JointState) and ~/imu from rt/lowstate; 0 = off, Hz.",
+    "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout are dropped) "
+    "instead of Twist. Read at start.",
 }
 
 #: Float ranges other than the default (1e-3, 1e6).
 _RANGES: dict[str, tuple[float, float]] = {
     "move_duration_s": (0.1, MAX_MOVE_DURATION_S),  # continuous Moves (864000 s) would outlive a dead node
+    "joint_state_rate_hz": (0.0, 1000.0),  # 0 = off
 }
 
 
 def _descriptor(name: str, default: object) -> ParameterDescriptor:
     desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=True)
-    if isinstance(default, float):
+    if isinstance(default, bool | str):
+        pass
+    elif isinstance(default, float):
         low, high = _RANGES.get(name, (1e-3, 1e6))
         desc.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
     elif name == "dds_domain":

@@ -60,6 +60,16 @@ MS_GET_SILENT: Final = 1005  # -> {"silent": bool}
 #: The high-level service this package selects.
 HIGH_LEVEL_SERVICE_NAME: Final = "ai"
 
+# --- voice service (speaker, microphone, head RGB LED) -------------------------------------------
+VOICE_SERVICE: Final = "voice"
+VOICE_API_VERSION: Final = "1.0.0.0"
+
+VOICE_TTS: Final = 1001  # {"index": int, "text": str, "speaker_id": int}
+VOICE_GET_VOLUME: Final = 1005  # -> {"volume": 0..100}
+VOICE_SET_VOLUME: Final = 1006  # {"volume": 0..100}
+VOICE_SET_LED: Final = 1010  # {"R": 0..255, "G": 0..255, "B": 0..255}: the head RGB LED
+VOICE_APIS: Final = (VOICE_TTS, VOICE_GET_VOLUME, VOICE_SET_VOLUME, VOICE_SET_LED)
+
 # --- return codes ------------------------------------------------------------------------------
 OK: Final = 0
 ERR_UNKNOWN: Final = 3001

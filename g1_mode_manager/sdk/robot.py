@@ -24,6 +24,7 @@ from g1_mode_manager.sdk.loco_client import LocoClient
 from g1_mode_manager.sdk.lowcmd import LowCmdWriter
 from g1_mode_manager.sdk.motion_switcher import MotionSwitcherClient
 from g1_mode_manager.sdk.state_readers import LowStateReader, SportStateReader
+from g1_mode_manager.sdk.voice_client import VoiceClient
 
 _log = logging.getLogger(__name__)
 P = TypeVar("P")
@@ -55,6 +56,8 @@ class UnitreeRobot:
         self._sport: SportStateReader | None = None
         self._ready = False
         self._closed = False
+        self._voice: VoiceClient | None = None
+        self._voice_lock = threading.Lock()
         #: Seconds the last connect() took (entity creation, then probe).
         self.connect_time_s: float | None = None
         self.create_time_s: float | None = None
@@ -103,6 +106,19 @@ class UnitreeRobot:
     @property
     def motion_switcher(self) -> MotionSwitcherClient:
         return self._need(self._switcher, "motion_switcher")
+
+    def voice(self, timeout_s: float = 0.5) -> VoiceClient | None:
+        """The voice service (head LED, TTS), or None until connect() succeeded or after close().
+
+        Created on first use, by the caller's thread (the head LED worker): its client costs the SDK's
+        0.5 s sleep, which must not lengthen connect(), i.e. the first transition.
+        """
+        if not self._ready or self._closed:
+            return None
+        with self._voice_lock:
+            if self._voice is None:
+                self._voice = VoiceClient(timeout_s)
+            return self._voice
 
     def _need(self, part: P | None, call: str) -> P:
         if part is None or self._closed:
@@ -173,6 +189,14 @@ class UnitreeRobot:
 
     def joint_positions(self) -> Sequence[float] | None:
         return None if self._lowstate is None else self._lowstate.joint_positions()
+
+    def lowstate_data(self) -> tuple[bytes, int] | None:
+        """The serialised latest rt/lowstate and how many arrived so far (None before the first): the
+        joint state publisher decodes it only when it publishes."""
+        if self._lowstate is None:
+            return None
+        snapshot, _stamp, count = self._lowstate.latest()
+        return None if snapshot is None else (snapshot.data, count)
 
     def lowstate_restarts(self) -> int:
         return 0 if self._lowstate is None else self._lowstate.restarts

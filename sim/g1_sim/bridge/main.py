@@ -140,6 +140,7 @@ class Bridge:
         from g1_sim.bridge.status import STATUS_API_VERSION, STATUS_SERVICE, status_handlers
         from g1_sim.bridge.streams import CommandSubscribers, StatePublishers
         from g1_sim.bridge.swap import RobotSlot
+        from g1_sim.bridge.voice import VoiceState, voice_handlers
         from g1_sim.firmware import SimG1
 
         p = node.params()
@@ -162,6 +163,11 @@ class Bridge:
                       motion_switcher_handlers(self.robot), faults=self.faults, counter=self.requests, **hooks),
             SimServer(STATUS_SERVICE, STATUS_API_VERSION, status_handlers(self.status, self.reset)),
         ]  # fmt: skip
+        # voice (head LED, TTS): counted, but neither faulted nor recorded: its api ids overlap the motion
+        # switcher's (1001..1005), and the record and faults are about the robot's motion services
+        self.voice = VoiceState()
+        self.servers.append(SimServer(api.VOICE_SERVICE, api.VOICE_API_VERSION, voice_handlers(self.voice),
+                                      counter=self.requests))
         self._record_state()
         for server in self.servers:
             if stop.is_set():
@@ -233,6 +239,7 @@ class Bridge:
             "firmware": dict(getattr(robot, "counters", {})),
             "faults": self.faults.config.to_json(),
             "damp_fails_left": self.faults.damp_fails_left,
+            "voice": self.voice.status(),
         }
 
 

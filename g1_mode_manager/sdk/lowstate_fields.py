@@ -1,0 +1,62 @@
+"""Joint states and IMU of one serialised rt/lowstate, decoded only when someone publishes them.
+
+rt/lowstate arrives at 500 Hz; the reader keeps the raw bytes of the latest sample, and the node
+decodes them at its own (lower) publishing rate. A struct path reads the fixed CDR layout (~5 us);
+other encodings fall back to the full deserialisation (~0.4 ms).
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+from typing import Final
+
+from g1_mode_manager.protocol.idl import LowState_
+from g1_mode_manager.protocol.motors import NUM_JOINTS
+
+
+@dataclass(frozen=True)
+class LowStateFields:
+    """Motor order; IMU quaternion is (w, x, y, z) as Unitree sends it, gyro rad/s, accelerometer m/s^2."""
+
+    q: tuple[float, ...]
+    dq: tuple[float, ...]
+    tau: tuple[float, ...]  # tau_est, N m
+    quaternion: tuple[float, float, float, float]
+    gyroscope: tuple[float, float, float]
+    accelerometer: tuple[float, float, float]
+
+
+# CDR offsets after the 4-byte encapsulation header: IMUState_ follows version[2], mode_pr, mode_machine and
+# tick at 16; MotorState_ (56 bytes: mode, q, dq, ddq, tau_est, temperature[2], vol, sensor[2], motorstate,
+# reserve[4]) starts at 70, so q of motor i is at 72 + 56 i (as in state_readers.decode_lowstate).
+_IMU: Final = struct.Struct("<10f")  # quaternion[4], gyroscope[3], accelerometer[3]
+_IMU_AT: Final = 4 + 16
+_MOTORS: Final = struct.Struct("<" + "ff4xf40x" * (NUM_JOINTS - 1) + "ff4xf")  # q, dq, (ddq), tau_est
+_MOTORS_AT: Final = 4 + 72
+_LITTLE_ENDIAN_ENCODINGS: Final = (0x01, 0x07)
+
+
+def decode_fields(data: bytes) -> LowStateFields:
+    """Decode the 29 joints' q, dq, tau_est and the IMU of a serialised LowState_."""
+    if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= _MOTORS_AT + _MOTORS.size:
+        imu = _IMU.unpack_from(data, _IMU_AT)
+        m = _MOTORS.unpack_from(data, _MOTORS_AT)
+        return LowStateFields(q=m[0::3], dq=m[1::3], tau=m[2::3], quaternion=imu[0:4], gyroscope=imu[4:7],
+                              accelerometer=imu[7:10])  # fmt: skip
+    return decode_fields_slowly(data)
+
+
+def decode_fields_slowly(data: bytes) -> LowStateFields:
+    """The same by full deserialisation: any encoding cyclonedds reads."""
+    msg = LowState_.deserialize(data)
+    motors = msg.motor_state[:NUM_JOINTS]
+    imu_state = msg.imu_state
+    return LowStateFields(
+        q=tuple(float(x.q) for x in motors),
+        dq=tuple(float(x.dq) for x in motors),
+        tau=tuple(float(x.tau_est) for x in motors),
+        quaternion=tuple(float(v) for v in imu_state.quaternion),  # type: ignore[arg-type]
+        gyroscope=tuple(float(v) for v in imu_state.gyroscope),  # type: ignore[arg-type]
+        accelerometer=tuple(float(v) for v in imu_state.accelerometer),  # type: ignore[arg-type]
+    )
