@@ -31,3 +31,8 @@ def _lock(kind: str, candidates: range) -> int:
 def allocate_run_domains() -> tuple[int, int]:
     """(ROS_DOMAIN_ID, Unitree SDK2 domain), each held by a file lock until this process exits."""
     return _lock("ros", _ROS_RANGE), _lock("sdk", _SDK_RANGE)
+
+
+def allocate_sdk_domain() -> int:
+    """One more Unitree SDK2 domain, held like the run's own (a second simulated robot on its own domain)."""
+    return _lock("sdk", _SDK_RANGE)

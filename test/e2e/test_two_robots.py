@@ -1,0 +1,110 @@
+"""Two robots at once: two sims on two SDK2 domains, two nodes in /g1_a and /g1_b on one ROS domain.
+
+A mode request and a namespaced e-stop act on their own robot only; the global /estop stops both. Every
+verdict is the robot's own: each sim's record (its requests and states), read from its file, because the
+test process can join only one SDK2 domain. Two sims at once are heavy on two cores: both run at real
+time with ROS publishing off, and the scenario is short.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from g1_mode_manager_msgs.srv import SetMode
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Bool
+from std_srvs.srv import Trigger
+
+from support.domains import allocate_sdk_domain
+from support.mode_manager import RosClient, start_mode_manager, wait_until
+from support.processes import ManagedProcess
+from support.sim_bridge import start_sim_bridge
+from support.sim_record import SimRecord, damped, is_damp, requests, states
+
+
+class Robot:
+    """One sim + its node in a namespace, judged from the sim's record."""
+
+    def __init__(self, ns: str, domain: int, record: SimRecord, bridge: ManagedProcess, ros: RosClient) -> None:
+        self.ns, self.domain, self.record, self.bridge, self.ros = ns, domain, record, bridge, ros
+        self.node: ManagedProcess | None = None
+
+    def set_mode(self, name: str) -> SetMode.Response:
+        return self.ros.call(SetMode, f"{self.ns}/g1_mode_manager/set_mode", SetMode.Request(mode_name=name))
+
+    def estop(self) -> Trigger.Response:
+        return self.ros.call(Trigger, f"{self.ns}/g1_mode_manager/estop", Trigger.Request())
+
+    def state(self) -> dict:
+        return states(self.record.events())[-1]
+
+    def requests_since(self, t0: float) -> list[dict]:
+        return requests(self.record.events(since=t0))
+
+    def damps_since(self, t0: float) -> list[dict]:
+        return [e for e in self.requests_since(t0) if is_damp(e)]
+
+
+@pytest.fixture
+def two_robots(sdk_channels: int, tmp_path):
+    ros = RosClient("two_robots_client")
+    robots: list[Robot] = []
+    procs: list[ManagedProcess] = []
+    try:
+        for ns, domain in (("/g1_a", sdk_channels), ("/g1_b", allocate_sdk_domain())):
+            path = tmp_path / f"{ns.strip('/')}.jsonl"
+            bridge = start_sim_bridge(domain, speed=1.0, extra_args=(
+                "--record", str(path), "--no-ros-publish", "--ros-args", "-r", f"__ns:={ns}"))  # fmt: skip
+            procs.append(bridge)
+            robots.append(Robot(ns, domain, SimRecord(path), bridge, ros))
+        for robot in robots:
+            robot.node = start_mode_manager(robot.domain, remaps=(f"__ns:={robot.ns}",))
+            procs.append(robot.node)
+        for robot in robots:
+            ros.wait_node_answers(f"{robot.ns}/g1_mode_manager")
+        yield robots
+    finally:
+        ros.close()
+        for proc in reversed(procs):
+            code = proc.stop()
+            if code not in (0, None):
+                print(f"{proc.name} exited with {code}; output:\n{proc.output()[-3000:]}")
+
+
+def test_each_robot_obeys_its_own_node_and_the_global_estop_stops_both(two_robots) -> None:
+    a, b = two_robots
+    assert a.domain != b.domain
+    assert a.state()["svc"] == b.state()["svc"] == "ai"  # both boot with the high-level service
+
+    t0 = time.monotonic()
+    r = a.set_mode("low_level")
+    assert r.success, r.message
+    assert a.state()["svc"] == ""  # robot A released its service ...
+    assert b.state()["svc"] == "ai" and b.requests_since(t0) == []  # ... robot B heard nothing at all
+
+    t1 = time.monotonic()
+    r = b.set_mode("high_level")
+    assert r.success, r.message
+    assert b.requests_since(t1), "robot B never heard its own node"
+    assert a.state()["svc"] == "" and a.damps_since(t0) == []
+
+    t2 = time.monotonic()
+    r = a.estop()
+    assert r.success, r.message
+    assert wait_until(lambda: damped(a.state()), 5.0), a.state()
+    time.sleep(0.5)  # robot B's supervision keeps running: give a wrong Damp time to show up
+    assert b.damps_since(t2) == [] and not damped(b.state()), b.state()
+
+    t3 = time.monotonic()
+    pub = ros_publisher(a.ros)
+    assert wait_until(lambda: pub.get_subscription_count() >= 2, 10.0), "both nodes listen to /estop"
+    pub.publish(Bool(data=True))
+    assert wait_until(lambda: damped(b.state()), 5.0), b.state()
+    assert b.damps_since(t3), "robot B damped without a Damp request?"
+    assert damped(a.state())
+
+
+def ros_publisher(ros: RosClient):
+    qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+    return ros.node.create_publisher(Bool, "/estop", qos)
