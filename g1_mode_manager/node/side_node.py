@@ -40,6 +40,11 @@ class SideNode:
             self._executor.spin()
         except ExternalShutdownException:
             pass
+        except Exception:
+            # SIGINT shuts the context down while this thread waits: rclpy then raises RCLError ("context is not
+            # valid") instead of ExternalShutdownException. Only an error of a live context is a real one.
+            if self.main.context.ok():
+                raise
 
     def shutdown(self) -> None:
         self._executor.shutdown()

@@ -39,6 +39,8 @@ def test_colcon_builds_both_packages(tmp_path: Path) -> None:
     for exe in ("mode_manager", "sim_bridge", "g1ctl"):
         assert (install / "g1_mode_manager" / "lib" / "g1_mode_manager" / exe).exists(), exe
     assert (install / "g1_mode_manager" / "share" / "g1_mode_manager" / "config" / "mode_manager.yaml").exists()
+    for launch_file in ("sim.launch.py", "robot.launch.py"):
+        assert (install / "g1_mode_manager" / "share" / "g1_mode_manager" / "launch" / launch_file).exists(), launch_file
     assert (install / "g1_mode_manager" / "share" / "ament_index" / "resource_index" / "packages" / "g1_mode_manager").exists()
     msgs_py = next((install / "g1_mode_manager_msgs" / "lib").glob("python3*/site-packages"))
     check = subprocess.run(

@@ -1,0 +1,41 @@
+"""The mode manager for a real G1, on the network interface wired to the robot (192.168.123.x).
+
+    ros2 launch g1_mode_manager robot.launch.py network_interface:=eth0 [params_file:=...] [namespace:=]
+
+``network_interface`` is required: the default 'lo' of the node reaches no robot. A real G1 uses Unitree
+SDK2 DDS domain 0. joint_states and ~/imu are on here (50 Hz) for robot_state_publisher and rviz.
+A params file of your own must name the node ``/**/g1_mode_manager`` (or ``/**``) to apply in a namespace.
+"""
+
+from __future__ import annotations
+
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
+
+PACKAGE = "g1_mode_manager"
+
+
+def generate_launch_description() -> LaunchDescription:
+    default_params = os.path.join(get_package_share_directory(PACKAGE), "config", "mode_manager.yaml")
+    return LaunchDescription([
+        DeclareLaunchArgument("network_interface",
+                              description="network interface wired to the robot (e.g. eth0, enp3s0); required"),
+        DeclareLaunchArgument("params_file", default_value=default_params, description="mode manager parameters"),
+        DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of the node, e.g. /g1_a"),
+        DeclareLaunchArgument("dds_domain", default_value="0", description="Unitree SDK2 DDS domain (a G1 uses 0)"),
+        DeclareLaunchArgument("joint_state_rate_hz", default_value="50.0",
+                              description="joint_states and ~/imu rate from rt/lowstate, Hz (0 = off)"),
+        # No `name=`: a node-name remap would also rename the node's e-stop and services side nodes.
+        Node(package=PACKAGE, executable="mode_manager", namespace=LaunchConfiguration("namespace"), output="screen",
+             parameters=[LaunchConfiguration("params_file"), {
+                 "network_interface": LaunchConfiguration("network_interface"),
+                 "dds_domain": ParameterValue(LaunchConfiguration("dds_domain"), value_type=int),
+                 "joint_state_rate_hz": ParameterValue(LaunchConfiguration("joint_state_rate_hz"), value_type=float),
+             }]),
+    ])  # fmt: skip

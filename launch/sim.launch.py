@@ -1,0 +1,55 @@
+"""The simulated G1 (MuJoCo, Unitree SDK2 DDS on loopback) and the mode manager that drives it.
+
+    ros2 launch g1_mode_manager sim.launch.py [domain:=0] [namespace:=] [speed:=1.0] [viewer:=false]
+
+``domain`` is the Unitree SDK2 (Cyclone DDS) domain of the robot side, not ROS_DOMAIN_ID. With a
+``namespace`` (e.g. /g1_a) the node serves /g1_a/g1_mode_manager/set_mode, listens to /g1_a/cmd_vel and
+publishes /g1_a/joint_states; /estop stays global (the fleet-wide button). For two robots, launch twice
+with different ``domain`` and ``namespace``.
+"""
+
+from __future__ import annotations
+
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition, UnlessCondition
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
+
+PACKAGE = "g1_mode_manager"
+
+
+def generate_launch_description() -> LaunchDescription:
+    domain = LaunchConfiguration("domain")
+    namespace = LaunchConfiguration("namespace")
+    speed = LaunchConfiguration("speed")
+    viewer = LaunchConfiguration("viewer")
+    params_file = LaunchConfiguration("params_file")
+    default_params = os.path.join(get_package_share_directory(PACKAGE), "config", "mode_manager.yaml")
+    bridge_args = ["--domain", domain, "--interface", "lo", "--speed", speed]
+    # No `name=` on these Nodes: a node-name remap would also rename the mode manager's side nodes
+    # (its e-stop and services executors), which must keep names of their own.
+    return LaunchDescription([
+        DeclareLaunchArgument("domain", default_value="0", description="Unitree SDK2 DDS domain of the sim (0..230)"),
+        DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of both nodes, e.g. /g1_a"),
+        DeclareLaunchArgument("speed", default_value="1.0", description="sim time per wall time (0 = as fast as possible)"),
+        DeclareLaunchArgument("viewer", default_value="false", description="open the MuJoCo viewer (needs a display)"),
+        DeclareLaunchArgument("params_file", default_value=default_params, description="mode manager parameters"),
+        DeclareLaunchArgument("joint_state_rate_hz", default_value="0.0",
+                              description="mode manager joint_states/~/imu rate, Hz (the sim publishes its own "
+                                          "/joint_states in the root namespace)"),
+        Node(package=PACKAGE, executable="sim_bridge", namespace=namespace, output="screen",
+             arguments=bridge_args, condition=UnlessCondition(viewer)),
+        Node(package=PACKAGE, executable="sim_bridge", namespace=namespace, output="screen",
+             arguments=[*bridge_args, "--viewer"], condition=IfCondition(viewer)),
+        Node(package=PACKAGE, executable="mode_manager", namespace=namespace, output="screen",
+             parameters=[params_file, {
+                 "network_interface": "lo",
+                 "dds_domain": ParameterValue(domain, value_type=int),
+                 "joint_state_rate_hz": ParameterValue(LaunchConfiguration("joint_state_rate_hz"), value_type=float),
+             }]),
+    ])  # fmt: skip

@@ -1,0 +1,42 @@
+"""The launch files without a launch install (no launch/launch_ros wheel exists): valid Python, the arguments
+the README promises, network_interface required on the robot. docs/launch_check.md records the run of
+both files under the real launch/launch_ros (jazzy) at development time."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+LAUNCH = Path(__file__).resolve().parents[2] / "launch"
+
+
+def _arguments(path: Path) -> dict[str, bool]:
+    """DeclareLaunchArgument name -> has a default."""
+    out = {}
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "DeclareLaunchArgument":
+            name = node.args[0]
+            assert isinstance(name, ast.Constant)
+            out[name.value] = any(k.arg == "default_value" for k in node.keywords)
+    return out
+
+
+@pytest.mark.parametrize(("name", "required", "optional"), [
+    ("sim.launch.py", set(), {"domain", "namespace", "speed", "viewer", "params_file"}),
+    ("robot.launch.py", {"network_interface"}, {"params_file", "namespace", "dds_domain", "joint_state_rate_hz"}),
+])  # fmt: skip
+def test_launch_arguments(name: str, required: set[str], optional: set[str]) -> None:
+    args = _arguments(LAUNCH / name)
+    assert {k for k, has_default in args.items() if not has_default} == required
+    assert optional <= {k for k, has_default in args.items() if has_default}
+    assert "generate_launch_description" in (LAUNCH / name).read_text()
+
+
+def test_launch_files_build_their_description_where_launch_is_installed() -> None:
+    pytest.importorskip("launch_ros")
+    from launch.launch_description_sources import get_launch_description_from_python_launch_file
+
+    for path in sorted(LAUNCH.glob("*.launch.py")):
+        assert get_launch_description_from_python_launch_file(str(path)).entities
