@@ -38,6 +38,12 @@ def call_service(node: Node, srv_type, name: str, request, timeout_s: float, dis
         node.destroy_client(client)
 
 
+def cmd_vel_topic(manager: str) -> str:
+    """The manager's cmd_vel (relative to its namespace): /g1_a/g1_mode_manager -> /g1_a/cmd_vel."""
+    namespace = manager.rstrip("/").rpartition("/")[0]
+    return f"{namespace}/cmd_vel"
+
+
 class ManagerClient:
     """Calls ~/set_mode, ~/estop, ~/loco_command of a mode manager node and watches ~/mode."""
 
@@ -59,7 +65,7 @@ class ManagerClient:
         self._mode_listeners: list = []
         self.node.create_subscription(Mode, f"{self.manager}/mode", self._on_mode, MODE_QOS)
         self.node.create_subscription(SportModeState, f"{self.manager}/sportmodestate", self._on_sport, 10)
-        self.cmd_vel = self.node.create_publisher(Twist, "/cmd_vel", 10)
+        self.cmd_vel = self.node.create_publisher(Twist, cmd_vel_topic(self.manager), 10)
 
     def close(self) -> None:
         self._executor.shutdown()

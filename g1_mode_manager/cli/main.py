@@ -31,7 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("loco", help="built-in controller command: damp, stand_up, start, sit, squat, ...")
     p.add_argument("command")
     p.add_argument("value", nargs="?", type=int, default=0)
-    sub.add_parser("drive", help="keyboard teleop on /cmd_vel")
+    sub.add_parser("drive", help="keyboard teleop on <namespace of --manager>/cmd_vel")
     args = parser.parse_args(argv)
 
     default_discovery_to_localhost()
