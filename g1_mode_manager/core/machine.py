@@ -196,6 +196,16 @@ class ModeMachine:
             yield self._allows(predicate)
 
     @contextmanager
+    def ramping_out(self) -> Iterator[bool]:
+        """Hold the forward gate around one hand-back frame (an arm weight going down): allowed in every
+        mode but EMERGENCY, also while a transition runs (leaving HIGH_LEVEL waits for the ramp-out).
+        After an e-stop nothing but damping reaches the robot."""
+        with self._forward_lock:
+            with self._state_lock:
+                ok = self._mode is not Mode.EMERGENCY
+            yield ok
+
+    @contextmanager
     def robot_call(self, allowed: Callable[[Mode], bool]) -> Iterator[bool]:
         """Around a blocking robot-changing call (a loco command): yields whether it may be sent.
 

@@ -76,6 +76,11 @@ class ArmRelay:
         self._watchdog.feed()
         return None
 
+    def busy(self) -> bool:
+        """Frames to send soon: a weight above 0 (held, ramping) or arm commands arriving. Otherwise
+        the worker may sleep until woken (a command, a mode change)."""
+        return self._ramp.weight > 0.0 or not self._watchdog.expired()
+
     # --- ramp-out waits ------------------------------------------------------------------------
     def on_leave(self, source: Mode, target: Mode) -> None:
         """Leave listener: leaving HIGH_LEVEL ramps the arms out first (an e-stop never waits)."""
@@ -118,6 +123,10 @@ class ArmRelay:
 
     def _tick(self, dt_s: float) -> None:
         weight = self._ramp.weight
+        if self._gate.mode is Mode.EMERGENCY:  # the e-stop's Damp owns the robot: no arm_sdk frame at all
+            if weight > 0.0:
+                self._restart(clear_targets=True)
+            return
         if not self._link.link_ok():
             if weight > 0.0 and not self._link_lost:
                 self._events.log("error", "arm_link",
@@ -143,7 +152,9 @@ class ArmRelay:
                     self._send(True, dt_s)
                     return
         if weight > 0.0:
-            self._send(False, dt_s)
+            with self._gate.ramping_out() as allowed:
+                if allowed:
+                    self._send(False, dt_s)
 
     def _send(self, engage: bool, dt_s: float) -> None:
         weight = self._ramp.propose(engage, dt_s)

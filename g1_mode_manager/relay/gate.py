@@ -23,6 +23,9 @@ class ModeGate(Protocol):
     def forwarding(self, predicate: Callable[[Mode], bool]) -> AbstractContextManager[bool]:
         """Held around one send: True iff it may pass; no mode change or e-stop starts meanwhile."""
 
+    def ramping_out(self) -> AbstractContextManager[bool]:
+        """Held around one hand-back frame: True unless an e-stop began (then nothing but damping is sent)."""
+
     def add_leave_listener(self, listener: LeaveListener) -> None:
         """listener(source, target) runs after the gate closed, before the transition's first robot call."""
 

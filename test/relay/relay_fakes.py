@@ -40,6 +40,10 @@ class Gate:
         self.forwarded += ok
         yield ok
 
+    @contextmanager
+    def ramping_out(self) -> Iterator[bool]:
+        yield self.mode is not Mode.EMERGENCY
+
     def add_leave_listener(self, listener: Callable[[Mode, Mode], None]) -> None:
         self.listeners.append(listener)
 

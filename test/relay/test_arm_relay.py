@@ -195,3 +195,17 @@ def test_bad_input_refused_and_nothing_sent(events, bad) -> None:
     relay.tick(PERIOD)
     assert port.stream("write_arm_sdk") == []
     assert _relay(port, Gate(Mode.LOW_LEVEL), events).submit(["left_elbow_joint"], [0.1]) == "mode is LOW_LEVEL"
+
+
+def test_after_an_estop_no_arm_frame_is_sent_even_while_the_robot_still_stands(events, logs) -> None:
+    """The e-stop's Damp may take a moment to land (the robot still stands): no ramp-out, no frame at all."""
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events)
+    _drive(relay, 30)
+    assert _weights(port)[-1] > 0.2
+    sent = len(_weights(port))
+    gate.leave(Mode.EMERGENCY)  # the robot's fsm is still 4: it would still take arm_sdk
+    for _ in range(20):
+        relay.tick(PERIOD)
+    assert _weights(port)[sent:] == []
