@@ -37,6 +37,8 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--assets", help="simulation assets folder (default: the installed ones)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random numbers")
     p.add_argument("--record", help="append every request, frame and state change the robot saw to this JSONL file")
+    p.add_argument("--viewer", action="store_true",
+                   help="MuJoCo's passive viewer with the head LED drawn (needs a display; headless: a warning)")
     args = p.parse_args(list(argv))
     if args.speed is not None and args.speed < 0:
         p.error("--speed must be >= 0")
@@ -79,7 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         log.error("bad ROS arguments: %s", e)
         return EXIT_BAD_CONFIG
     args = parse_cli(remove_ros_args(args_in)[1:])
-    node = executor = spin = bridge = None
+    node = executor = spin = bridge = viewer = None
     code = 0
     try:
         from g1_sim.bridge.faults import FaultConfigError
@@ -98,6 +100,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         spin = threading.Thread(target=executor.spin, name="ros_spin", daemon=True)
         spin.start()
         bridge.start()
+        if args.viewer:
+            from g1_sim.bridge.viewer import Viewer
+
+            viewer = Viewer(bridge.robot, lambda: list(bridge.voice.led))
+            viewer.start()
         print(READY_LINE, flush=True)
         while not stop.event.wait(0.2):
             if not bridge.loop.running:
@@ -105,6 +112,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 code = EXIT_FAILED
                 break
     finally:
+        if viewer is not None:
+            viewer.stop()
         if bridge is not None:
             bridge.shutdown()
             summary = {k: v for k, v in bridge.status().items() if k in ("sim_time", "requests", "frames", "published")}
