@@ -46,7 +46,9 @@ class SideNode:
             if self.main.context.ok():
                 raise
 
-    def shutdown(self) -> None:
-        self._executor.shutdown()
-        self._thread.join(5.0)
+    def shutdown(self, timeout_s: float = 1.0) -> None:
+        """Stop serving; a callback still blocked in a robot call (an e-stop sequence, a SelectMode) is not
+        waited for beyond ``timeout_s``: the process is exiting and the robot side needs nothing more."""
+        self._executor.shutdown(timeout_sec=timeout_s)
+        self._thread.join(timeout_s)
         self.node.destroy_node()
