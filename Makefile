@@ -34,8 +34,9 @@ $(STAMPS)/package: $(STAMPS)/msgs setup.py setup.cfg package.xml
 lint: setup
 	$(BIN)/ruff check .
 
+# Two workers (pytest-xdist), each with DDS domains of its own; a test file stays in one worker.
 test: setup lint
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 run: setup
 	$(BIN)/g1_demo

@@ -6,7 +6,7 @@ ReleaseMode / SetFsmId (0-3 s, so in-flight calls land in every order), failing 
 requests, loco commands and /cmd_vel from two clients, and an e-stop at a random instant through the
 service or the topic (reliable or best effort). See scenario.judge for the invariants.
 
-CI runs a fixed-seed batch (G1_CHAOS_N, default 10); `make chaos N=500 SEED=...` a longer one. The
+CI runs a fixed-seed batch (G1_CHAOS_N, default 40); `make chaos N=500 SEED=...` a longer one. The
 last line of a batch is `chaos: N scenarios, V violations`, with each failing seed above it.
 """
 
@@ -34,7 +34,7 @@ from support.sim_record import SimRecord
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
-N = int(os.environ.get("G1_CHAOS_N", "10"))
+N = int(os.environ.get("G1_CHAOS_N", "40"))
 SEED = int(os.environ.get("G1_CHAOS_SEED", "7000"))
 SUMMARY = os.environ.get("G1_CHAOS_SUMMARY", "")
 #: Node call timeouts longer than the longest injected delay: every in-flight call's reply comes back.
