@@ -4,12 +4,19 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMPS := $(VENV)/.stamps
+# The robot's Cyclone DDS 0.10.2 with the Unitree SDK2 over it, for the robot-compatibility tests.
+SIDE_VENV ?= .venv-cyclone010
 
 MSG_SOURCES := $(shell find msg_defs -type f)
 
 .PHONY: setup run test lint bench chaos clean
 
-setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets
+setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets $(SIDE_VENV)/.stamp
+
+$(SIDE_VENV)/.stamp: requirements-cyclone010.txt requirements-nodeps.txt scripts/build_cyclone010.sh scripts/check_system.sh
+	scripts/check_system.sh
+	scripts/build_cyclone010.sh $(PYTHON) $(SIDE_VENV)
+	@touch $@
 
 $(STAMPS)/deps: requirements.txt requirements-nodeps.txt constraints.txt scripts/check_system.sh
 	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "Python 3.11 is required, found " + sys.version'
@@ -56,4 +63,4 @@ chaos: setup
 	@tail -n 1 .venv/chaos_summary.txt | grep -q ' 0 violations$$'
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) $(SIDE_VENV) build *.egg-info

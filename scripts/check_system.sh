@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # System packages the set-up needs besides Python wheels: a C/C++ toolchain and CMake (to compile the
-# interfaces), Python headers, and EGL/Mesa for headless MuJoCo pictures. Installs what is missing
+# interfaces), Python headers, EGL/Mesa for headless MuJoCo pictures, and Debian's Cyclone DDS 0.10.2 (the
+# robot's, for the side environment .venv-cyclone010/). Installs what is missing
 # when run as root (Debian), otherwise says what to install.
 set -euo pipefail
 missing=()
@@ -12,6 +13,7 @@ python3 -c 'import sysconfig, os, sys; sys.exit(0 if os.path.exists(os.path.join
 ldconfig -p | grep -q 'libEGL.so.1 ' || missing+=(libegl1)
 ldconfig -p | grep -q 'libEGL_mesa.so.0 ' || missing+=(libegl-mesa0)
 compgen -G "/usr/lib/*/dri/swrast_dri.so" >/dev/null || missing+=(libgl1-mesa-dri)
+compgen -G "/usr/lib/*/libddsc.so" >/dev/null || missing+=(cyclonedds-dev)  # the robot's Cyclone 0.10.2: side env
 [ ${#missing[@]} -eq 0 ] && exit 0
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
   echo "installing system packages: ${missing[*]}"

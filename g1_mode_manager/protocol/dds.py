@@ -36,20 +36,24 @@ def minimal_type_id(idl_type: type) -> str:
 LOOPBACK_INTERFACE = "lo"
 
 
-def cyclone_config(interface: str, *, peers: tuple[str, ...] = ()) -> str:
+def cyclone_config(interface: str, *, peers: tuple[str, ...] = (), serve_multicast: bool = False) -> str:
     """Cyclone DDS XML for one network interface.
 
-    On loopback there is no multicast at all (discovery by unicast to 127.0.0.1 and auto participant
-    indices), so tests never announce themselves onto the machine's network. On a robot interface the
-    robot's own defaults apply (multicast discovery on that interface only).
+    On loopback discovery is by unicast to 127.0.0.1 with auto participant indices, so tests never
+    announce themselves onto the machine's network. ``serve_multicast`` (the sim bridge: a robot must be
+    found by every kind of client) also enables multicast on lo, which never leaves the machine: the
+    SDK's plain ``ChannelFactoryInitialize(d, "lo")`` on cyclonedds 11 discovers only by multicast there,
+    Cyclone 0.10 and our clients only by unicast. On a robot interface the robot's own defaults apply
+    (multicast discovery on that interface only).
     """
     if interface == LOOPBACK_INTERFACE:
         peers = peers or ("127.0.0.1",)
         peer_xml = "".join(f'<Peer address="{p}"/>' for p in peers)
+        multicast = ('<NetworkInterface name="lo" multicast="true"/></Interfaces><AllowMulticast>true'
+                     if serve_multicast else '<NetworkInterface name="lo"/></Interfaces><AllowMulticast>false')
         return (
             '<?xml version="1.0" encoding="UTF-8" ?><CycloneDDS><Domain Id="any">'
-            '<General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
-            "<AllowMulticast>false</AllowMulticast></General>"
+            f"<General><Interfaces>{multicast}</AllowMulticast></General>"
             "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60"
             f"</MaxAutoParticipantIndex><Peers>{peer_xml}</Peers></Discovery>"
             "</Domain></CycloneDDS>"
@@ -61,11 +65,12 @@ def cyclone_config(interface: str, *, peers: tuple[str, ...] = ()) -> str:
     )
 
 
-def init_channels(domain_id: int, interface: str) -> None:
+def init_channels(domain_id: int, interface: str, *, serve_multicast: bool = False) -> None:
     """Initialise the SDK's process-wide DDS domain (idempotent; one domain per process).
 
-    Unlike ``ChannelFactoryInitialize`` this uses our configuration: no trace log in /tmp, and no
-    multicast on loopback. Raises RuntimeError if the domain cannot be created.
+    Unlike ``ChannelFactoryInitialize`` this uses our configuration (``cyclone_config``): no trace log
+    in /tmp, and on loopback no multicast unless ``serve_multicast``. Raises RuntimeError if the domain
+    cannot be created.
     """
     from unitree_sdk2py.core import channel as sdk_channel
 
@@ -75,7 +80,7 @@ def init_channels(domain_id: int, interface: str) -> None:
     if getattr(cls, "_ChannelFactory__initialized", False):
         return
     original = sdk_channel.ChannelConfigHasInterface
-    sdk_channel.ChannelConfigHasInterface = cyclone_config(interface)
+    sdk_channel.ChannelConfigHasInterface = cyclone_config(interface, serve_multicast=serve_multicast)
     try:
         ok = factory.Init(domain_id, interface)
     finally:

@@ -161,7 +161,7 @@ class Bridge:
         self._make_robot = lambda: SimG1(assets, seed=seed)
         self.robot = RobotSlot(self._make_robot())  # every part holds the slot, so reset() can swap the robot
         log.info("robot ready in %.1f s (dt %.4f s)", time.monotonic() - t0, self.robot.dt)
-        init_channels(p.dds_domain, p.network_interface)
+        init_channels(p.dds_domain, p.network_interface, serve_multicast=True)  # found by every kind of client
         self.record = Recorder(record)
         self.requests = RequestCounter()
         hooks = {"on_received": self._received, "on_handled": self._handled} if self.record.enabled else {}

@@ -1,0 +1,91 @@
+"""The sim as a robot's user meets it: stock SDK2 clients, initialised the SDK's own way, on both Cyclones.
+
+A robot is found by whatever the SDK's plain ``ChannelFactoryInitialize(d, "lo")`` does: on cyclonedds 11
+that is multicast on lo, on the robot's Cyclone 0.10.2 unicast with participant indices; our own clients
+are unicast-only. The bridge must serve all of them at once, so each stock client runs in a subprocess
+(the SDK's channel factory is a process-wide singleton) while this process's unicast status client reads
+the sim. What the robot did is judged from its own record and status, not from the clients' replies.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from support.cyclone010 import STOCK_CLIENT, json_lines, side_python
+from support.processes import ManagedProcess
+from support.sim_bridge import shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
+from support.sim_record import SimRecord, states
+
+pytestmark = pytest.mark.sim
+
+CLIENT_TIMEOUT_S = 60.0
+
+
+def _run_stock_client(python: str, domain: int, *args: str) -> list[dict]:
+    """Run the stock client to its end; returns its step lines (fails with its output if it did not finish)."""
+    proc = ManagedProcess([python, "-u", str(STOCK_CLIENT), str(domain), *args], name="stock_client")
+    try:
+        proc.proc.wait(CLIENT_TIMEOUT_S)
+    finally:
+        code = proc.stop()
+    assert code == 0, f"stock client exited with {code}:\n{proc.output()}"
+    return json_lines(proc)
+
+
+def _step(lines: list[dict], name: str) -> dict:
+    found = [line for line in lines if line["step"] == name]
+    assert found, f"no {name!r} step: {lines}"
+    return found[-1]
+
+
+def _check_walk(record: SimRecord, lines: list[dict], walked_m: float) -> None:
+    """Damp -> stand-up -> walking on the robot's side, and the base moved forward."""
+    t0, t1 = _step(lines, "connected")["t"], _step(lines, "walk")["t"]
+    fsms = [s["fsm"] for s in states(record.events(since=t0)) if s["t"] <= t1]
+    assert fsms[:2] == [1, 4] and 200 in fsms, f"robot states {fsms}"
+    assert walked_m >= 0.5, f"walked only {walked_m:.2f} m"
+
+
+def _position(status: dict) -> np.ndarray:
+    return np.array(status["base"]["position"][:2])
+
+
+def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_channels: int, sim_bridge_factory,  # noqa: F811
+                                                                         tmp_path) -> None:  # fmt: skip
+    path = tmp_path / "robot.jsonl"
+    sim_bridge_factory(speed=1.0, extra_args=("--record", str(path)))
+    record = SimRecord(path)
+    status = shared_sim_status()  # unicast-only (our configuration), reading while the stock clients drive
+    s0 = status.wait_ready()
+
+    # cyclonedds 11 + the robot type fix + plain ChannelFactoryInitialize(d, "lo"): multicast discovery.
+    lines = _run_stock_client(sys.executable, sdk_channels, "--type-fix", "walk")
+    assert _step(lines, "connected")["codes"] == [0, 0]
+    s1 = status.get()
+    walked = float(np.linalg.norm(_position(s1) - _position(s0)))
+    print(f"cyclonedds 11 stock client walked {walked:.2f} m")
+    _check_walk(record, lines, walked)
+
+    # Cyclone 0.10.2 (the robot's) + the same SDK code: walk, arm_sdk, release, select + damp.
+    lines = _run_stock_client(side_python(), sdk_channels, "walk", "arm", "release", "damp")
+    s2 = status.get()
+    assert s2["firmware"].get("falls", 0) == 0, s2["firmware"]
+    walked = float(np.linalg.norm(_position(s2) - _position(s1)))
+    print(f"Cyclone 0.10.2 stock client walked {walked:.2f} m")
+    _check_walk(record, lines, walked)
+    t_arm0, t_arm1 = _step(lines, "walk")["t"], _step(lines, "arm")["t"]
+    frames = [e for e in record.events(since=t_arm0) if e["k"] == "frame" and e["topic"] == "arm_sdk"
+              and e["t"] <= t_arm1 + 0.1]  # fmt: skip
+    accepted = [e for e in frames if e["ok"]]
+    assert len(accepted) >= 90 and max(e["w"] for e in accepted) >= 0.99, f"{len(accepted)} arm_sdk frames accepted"
+    assert _step(lines, "release")["check"] == {"form": "0", "name": ""}
+    damp = _step(lines, "damp")
+    assert (damp["select_code"], damp["damp_code"]) == (0, 0)
+    last = states(record.events(since=_step(lines, "arm")["t"]))
+    assert [s["svc"] for s in last][:1] == [""] and (last[-1]["fsm"], last[-1]["svc"]) == (1, "ai"), last
+    time.sleep(0.2)
+    assert status.get()["sport"]["fsm_id"] == 1

@@ -1,0 +1,141 @@
+"""A stock-style Unitree SDK2 client, as a robot's user would write it: nothing of this project imported.
+
+Run ``python stock_client.py DOMAIN STEP...`` with any interpreter that has ``unitree_sdk2py`` (the main
+venv on cyclonedds 11, or ``.venv-cyclone010`` on the robot's Cyclone 0.10.2). It initialises the SDK the
+SDK's own way, ``ChannelFactoryInitialize(DOMAIN, "lo")``, so discovery is whatever that gives on this
+Cyclone (11: multicast on lo; 0.10: unicast), and uses only the SDK's classes: ``LocoClient``,
+``MotionSwitcherClient``, ``ChannelPublisher``/``ChannelSubscriber`` and ``CRC``. With ``--type-fix`` (needed
+on cyclonedds 11 to match a robot) it describes uint8/int8 as Cyclone 0.10 does before the first topic.
+
+Steps, in the order given: ``walk`` (Damp, StandUp, Start, Move 0.5 m/s for 3 s, StopMove), ``arm``
+(rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``release`` (ReleaseMode), ``damp``
+(SelectMode("ai") then Damp). Each prints one JSON line ``{"step", "t", ...codes}``; the caller judges
+what the robot did from the robot's side. Exit 0 once every step ran, 1 if the server never answered.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from typing import Any
+
+ARM_SDK_TOPIC, LOWSTATE_TOPIC = "rt/arm_sdk", "rt/lowstate"
+ARM_JOINTS = range(12, 29)  # waist + both arms, as in Unitree's arm_sdk example
+WEIGHT_INDEX = 29  # motor_cmd[29].q carries the arm_sdk weight
+LEFT_SHOULDER_PITCH = 15
+
+
+def emit(step: str, **fields: Any) -> None:
+    print(json.dumps({"step": step, "t": time.monotonic(), **fields}), flush=True)
+
+
+def wait_server(client: Any, budget_s: float = 15.0) -> int:
+    """A fresh client is not matched at once (3102): probe the api version as the SDK's examples retry."""
+    deadline = time.monotonic() + budget_s
+    while True:
+        code, _ = client.GetServerApiVersion()
+        if code == 0 or time.monotonic() > deadline:
+            return code
+        time.sleep(0.1)
+
+
+def wait_static(loco: Any, budget_s: float = 15.0) -> int:
+    """Poll GetFsmMode (7002) until the controller is static (a stand-up finished); returns the last mode."""
+    deadline = time.monotonic() + budget_s
+    mode = -1
+    while time.monotonic() < deadline:
+        code, data = loco._Call(7002, "{}")
+        mode = json.loads(data)["data"] if code == 0 and data else -1
+        if mode == 0:
+            break
+        time.sleep(0.1)
+    return mode
+
+
+def walk(loco: Any) -> None:
+    loco.Damp()
+    time.sleep(0.3)
+    stand = loco.SetFsmId(4)
+    static = wait_static(loco)
+    loco.Start()
+    loco.Move(0.5, 0.0, 0.0, True)
+    time.sleep(3.0)
+    loco.StopMove()
+    time.sleep(0.5)
+    emit("walk", stand_code=stand, static_after_stand=static)
+
+
+def arm(publisher: Any, lowstate: Any) -> None:
+    from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
+    from unitree_sdk2py.utils.crc import CRC
+
+    state = lowstate.Read(2.0)
+    if state is None:
+        emit("arm", error="no rt/lowstate")
+        return
+    q0 = [m.q for m in state.motor_state[:29]]
+    crc = CRC()
+    frames = 0
+    for k in range(0, 101):  # 1 s in, 1 s out at 50 Hz
+        weight = min(k, 100 - k) / 50.0
+        msg = unitree_hg_msg_dds__LowCmd_()
+        for i in ARM_JOINTS:
+            m = msg.motor_cmd[i]
+            m.q = -0.8 if i == LEFT_SHOULDER_PITCH else q0[i]
+            m.kp, m.kd = 60.0, 1.5
+        msg.motor_cmd[WEIGHT_INDEX].q = weight
+        msg.crc = crc.Crc(msg)
+        publisher.Write(msg)
+        frames += 1
+        time.sleep(0.02)
+    emit("arm", frames=frames)
+
+
+def main(argv: list[str]) -> int:
+    type_fix = "--type-fix" in argv
+    args = [a for a in argv if a != "--type-fix"]
+    domain, steps = int(args[0]), args[1:]
+    if type_fix:
+        from cyclonedds.idl._typesupport.DDS import XTypes
+
+        XTypes.TK_UINT8 = XTypes.TK_BYTE
+        XTypes.TK_INT8 = XTypes.TK_CHAR8
+    from unitree_sdk2py.comm.motion_switcher.motion_switcher_client import MotionSwitcherClient
+    from unitree_sdk2py.core.channel import ChannelFactoryInitialize, ChannelPublisher, ChannelSubscriber
+    from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient
+    from unitree_sdk2py.idl.unitree_hg.msg.dds_ import LowCmd_, LowState_
+
+    ChannelFactoryInitialize(domain, "lo")
+    loco = LocoClient()
+    loco.SetTimeout(3.0)
+    loco.Init()
+    switcher = MotionSwitcherClient()
+    switcher.SetTimeout(5.0)
+    switcher.Init()
+    publisher = ChannelPublisher(ARM_SDK_TOPIC, LowCmd_)
+    publisher.Init()
+    lowstate = ChannelSubscriber(LOWSTATE_TOPIC, LowState_)
+    lowstate.Init()
+    codes = (wait_server(loco), wait_server(switcher))
+    emit("connected", codes=list(codes))
+    if codes != (0, 0):
+        return 1
+    for step in steps:
+        if step == "walk":
+            walk(loco)
+        elif step == "arm":
+            arm(publisher, lowstate)
+        elif step == "release":
+            code, _ = switcher.ReleaseMode()
+            emit("release", code=code, check=switcher.CheckMode()[1])
+        elif step == "damp":
+            select, _ = switcher.SelectMode("ai")
+            emit("damp", select_code=select, damp_code=loco.SetFsmId(1))
+        else:
+            emit(step, error="unknown step")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
