@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 
+import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from g1_mode_manager_msgs.msg import JointCommand, SportModeState
 from g1_mode_manager_msgs.msg import Mode as ModeMsg
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.duration import Duration
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -18,7 +21,7 @@ from sensor_msgs.msg import JointState
 
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotPort, SportState
+from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.node.diagnostics import build_diagnostics
@@ -27,6 +30,7 @@ from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.node.loco_commands import run_loco_command
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
+from g1_mode_manager.node.stream_taker import StreamTaker
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
@@ -52,8 +56,9 @@ def unitree_port(settings: Settings) -> RobotPort:
 class ModeManagerNode(Node):
     """Serves ~/set_mode, ~/loco_command, ~/estop; relays /cmd_vel, ~/arm_cmd, ~/lowcmd; publishes state.
 
-    Three executors: this node's (streams, timers, parameters; single-threaded: cheap at 100 Hz),
-    the services side node's (a thread pool for blocking transitions) and the e-stop side node's.
+    Three executors: this node's (parameters only), the services side node's (a thread pool for
+    blocking transitions) and the e-stop side node's. The command streams are taken by a thread of
+    their own (StreamTaker: cheap at 100 Hz); periodic publications run on plain threads.
     """
 
     def __init__(self, *, port_factory: PortFactory = unitree_port, node_name: str = "g1_mode_manager",
@@ -61,8 +66,7 @@ class ModeManagerNode(Node):
         super().__init__(node_name, **kwargs)
         self.settings = s = declare_settings(self)
         self._port = port_factory(s)
-        self._mirroring = False
-        self._mirror_lock = threading.Lock()
+        self._mirrored_stamp = 0.0  # monotonic receive time of the last rt/sportmodestate mirrored
         self._events = RelayEvents(self._relay_log)
         self.machine = ModeMachine(
             self._port,
@@ -105,21 +109,37 @@ class ModeManagerNode(Node):
         for relay in (self._lowcmd, self._arm, self._cmd_vel):  # lowcmd first: its damping frames are the urgent ones
             self.machine.add_leave_listener(relay.on_leave)
         # --- issue 11: cmd_vel relative (a namespace gives each robot its own), Twist or TwistStamped ---
+        # The command streams are taken by a thread of their own from a wait set of just them (see
+        # stream_taker.py): through rclpy's executor each /cmd_vel cost ~0.9 ms of Python on this node.
+        self._streams_node = rclpy.create_node(f"{self.get_name()}_streams", namespace=self.get_namespace(),
+                                               context=self.context, start_parameter_services=False)
+        self._streams = StreamTaker(self._streams_node, "streams", self._worker_error)
+        under_main = self.get_fully_qualified_name()
         if s.cmd_vel_stamped:
-            self.create_subscription(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped, 10)
+            self._streams.subscribe(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
         else:
-            self.create_subscription(Twist, "cmd_vel", self._on_cmd_vel, 10)
-        self.create_subscription(JointState, "~/arm_cmd", self._on_arm_cmd, 10)
-        self.create_subscription(JointCommand, "~/lowcmd", self._on_lowcmd, 10)
+            self._streams.subscribe(Twist, "cmd_vel", self._on_cmd_vel)
+        self._streams.subscribe(JointState, f"{under_main}/arm_cmd", self._on_arm_cmd)
+        self._streams.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd)
 
-        self.create_timer(1.0 / s.mode_publish_rate_hz, self._publish_mode)
-        self.create_timer(1.0 / s.diagnostics_rate_hz, self._publish_diagnostics)
+        # Periodic publications run on plain threads, not executor timers (same cost reason as above).
+        self._state_out = [PeriodicWorker("mode_publisher", s.mode_publish_rate_hz, self._while_ok(self._publish_mode),
+                                          self._worker_error),
+                           PeriodicWorker("diagnostics", s.diagnostics_rate_hz, self._while_ok(self._publish_diagnostics),
+                                          self._worker_error)]
+        if s.sportmodestate_rate_hz > 0:
+            self._state_out.append(PeriodicWorker("sportmodestate_mirror", s.sportmodestate_rate_hz,
+                                                  self._while_ok(self._mirror_sport_state), self._worker_error))
 
         self._workers = [
             self._cmd_vel,  # its own sender thread: sends on arrival, keeps Moves alive at cmd_vel_rate_hz
-            PeriodicWorker("arm_relay", s.arm_rate_hz, self._arm.tick, self._worker_error),
-            PeriodicWorker("lowcmd_relay", s.lowcmd_damping_rate_hz, self._lowcmd.tick, self._worker_error),
+            # both sleep while their stream cannot pass; a command or a mode change wakes them
+            PeriodicWorker("arm_relay", s.arm_rate_hz, self._arm.tick, self._worker_error, busy=self._arm.busy),
+            PeriodicWorker("lowcmd_relay", s.lowcmd_damping_rate_hz, self._lowcmd.tick, self._worker_error,
+                           busy=self._lowcmd.busy),
         ]
+        self._arm_worker, self._lowcmd_worker = self._workers[1], self._workers[2]
+        self.machine.add_leave_listener(self._wake_workers)  # after the relays': exit damping is due now
         for worker in self._workers:
             worker.start()
         self._estop = EstopEndpoint(self, self.machine.estop)
@@ -145,6 +165,9 @@ class ModeManagerNode(Node):
             self._lowstate_pub = LowStatePublisher(self, self._port)
             self.create_timer(1.0 / s.joint_state_rate_hz, self._lowstate_pub.publish)
         self._service_side.start()
+        self._streams.start()
+        for publisher in self._state_out:
+            publisher.start()
         self._publish_mode()
         self.get_logger().info(
             f"ready in {self.machine.mode.name}; robot side: interface {s.network_interface!r}, DDS domain "
@@ -154,14 +177,16 @@ class ModeManagerNode(Node):
     def shutdown(self) -> None:
         """Hand the robot back safely (arms ramped out, StopMove), stop relays and the e-stop executor, close
         the robot port. Call before destroy_node()."""
+        self._streams.shutdown()
+        self._streams_node.destroy_node()
+        for publisher in self._state_out:
+            publisher.stop()
         self._arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
         self._supervisor.stop()
         for worker in self._workers:
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
         self._service_side.shutdown()
         self._estop.shutdown()
-        if self._mirroring:
-            self._port.set_sport_state_listener(None)
         if self._head_led_worker is not None and self._head_led is not None:  # issue 11
             self._head_led_worker.stop()
             self._head_led.turn_off()
@@ -224,32 +249,45 @@ class ModeManagerNode(Node):
 
     def _on_arm_cmd(self, msg: JointState) -> None:
         self._arm.submit(list(msg.name), list(msg.position))
+        self._arm_worker.wake()
 
     def _on_lowcmd(self, msg: JointCommand) -> None:
         self._lowcmd.submit(list(msg.name), list(msg.q), list(msg.dq), list(msg.tau), list(msg.kp), list(msg.kd))
 
     # --- state out -------------------------------------------------------------------------------
-    def _mirror_sport_state(self, state: SportState) -> None:
-        self._sport_pub.publish(SportModeState(stamp=self.get_clock().now().to_msg(), fsm_id=state.fsm_id,
-                                               fsm_mode=state.fsm_mode, task_id=state.task_id,
-                                               task_time=state.task_time))
+    def _while_ok(self, publish: Callable[[], None]) -> Callable[[float], None]:
+        """A worker step that publishes unless the context is shutting down (SIGINT comes before shutdown())."""
+
+        def step(_dt_s: float) -> None:
+            if self.context.ok():
+                publish()
+
+        return step
+
+    def _mirror_sport_state(self) -> None:
+        """Publish the newest rt/sportmodestate once (stamped with its receive time); a timer, not a
+        callback per sample: the robot may publish it at 500 Hz."""
+        state = self._port.sport_state()
+        if state is None:
+            return
+        stamp = time.monotonic() - state.age_s
+        if abs(stamp - self._mirrored_stamp) < 1e-4:  # already mirrored
+            return
+        self._mirrored_stamp = stamp
+        received = self.get_clock().now() - Duration(nanoseconds=int(state.age_s * 1e9))
+        self._sport_pub.publish(SportModeState(stamp=received.to_msg(), fsm_id=state.fsm_id, fsm_mode=state.fsm_mode,
+                                               task_id=state.task_id, task_time=state.task_time))
 
     def _on_change(self, status: MachineStatus) -> None:
-        if not self._mirroring and status.mode is not Mode.UNINITIALIZED:
-            self._start_mirror()
+        self._wake_workers()
         self._publish_mode(status)
 
-    def _start_mirror(self) -> None:
-        """Mirror rt/sportmodestate once the port is connected (the first transition connects it)."""
-        with self._mirror_lock:
-            if self._mirroring:
-                return
-            try:
-                self._port.set_sport_state_listener(self._mirror_sport_state)
-            except Exception as exc:  # not connected after all (connect failed): retried on the next change
-                self.get_logger().warn(f"cannot mirror rt/sportmodestate yet: {exc}")
-                return
-            self._mirroring = True
+    def _wake_workers(self, *_leave: object) -> None:
+        """A mode change may give a sleeping relay worker something to do (LOW_LEVEL damping, exit damping)."""
+        for name in ("_arm_worker", "_lowcmd_worker"):
+            worker = getattr(self, name, None)  # None while __init__ runs
+            if worker is not None:
+                worker.wake()
 
     def _publish_mode(self, status: MachineStatus | None = None) -> None:
         """Publish a status unless a newer one was published already: ~/mode never goes back in time."""

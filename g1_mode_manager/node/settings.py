@@ -45,6 +45,7 @@ class Settings:
     estop_select_timeout_s: float = EstopTiming.select_s
     estop_timeout_s: float = EstopTiming.total_s
     supervise_rate_hz: float = 10.0
+    sportmodestate_rate_hz: float = 10.0
     estop_verify_period_s: float = EstopTiming.verify_period_s
     belief_check_period_s: float = EstopTiming.belief_period_s
     # --- issue 11: head LED / TTS, joint states + IMU, stamped cmd_vel ---
@@ -108,6 +109,8 @@ _DESCRIPTIONS: dict[str, str] = {
     "supervision keeps trying, s.",
     "supervise_rate_hz": "Rate at which the robot is checked against the mode (EMERGENCY: re-damped if seen out of "
     "damping), Hz.",
+    "sportmodestate_rate_hz": "Rate at which ~/sportmodestate mirrors the newest rt/sportmodestate (a sample is "
+    "published once; none while the robot is silent); 0 = off, Hz.",
     "estop_verify_period_s": "In EMERGENCY: period of CheckMode + GetFsmId re-verification of the robot, s.",
     "belief_check_period_s": "Outside EMERGENCY: period of the CheckMode that confirms the robot still matches the "
     "mode, s.",
@@ -129,6 +132,7 @@ _DESCRIPTIONS: dict[str, str] = {
 _RANGES: dict[str, tuple[float, float]] = {
     "move_duration_s": (0.1, MAX_MOVE_DURATION_S),  # continuous Moves (864000 s) would outlive a dead node
     "joint_state_rate_hz": (0.0, 1000.0),  # 0 = off
+    "sportmodestate_rate_hz": (0.0, 1000.0),  # 0 = off
 }
 
 

@@ -120,7 +120,8 @@ class CmdVelRelay:
     def _run(self) -> None:
         last_step = self._clock()
         while not self._stopped.is_set():
-            self._wake.wait(max(0.0, last_step + self._period_s - self._clock()))
+            # idle (no Move may be running, none owed, no fresh command): sleep until submit/on_leave/stop
+            self._wake.wait(None if self._idle() else max(0.0, last_step + self._period_s - self._clock()))
             self._wake.clear()
             if self._stopped.wait(max(0.0, self._last_send + self._min_interval_s - self._clock())):
                 break
@@ -130,6 +131,9 @@ class CmdVelRelay:
             except Exception as exc:  # a relay bug must not end the sender silently
                 if self._on_error is not None:
                     self._on_error(exc)
+
+    def _idle(self) -> bool:
+        return not self._maybe_moving and self._stop_reason is None and self._watchdog.expired()
 
     def step(self) -> None:
         """One decision with the latest command: at most one Move or StopMove."""

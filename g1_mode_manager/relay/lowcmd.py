@@ -75,6 +75,14 @@ class LowCmdRelay:
                 self._damp_until = self._clock() + self._exit_damping_s
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
 
+    def busy(self) -> bool:
+        """In LOW_LEVEL (damping on silence or link loss) and while exit damping is due; otherwise the
+        worker may sleep until woken (a mode change)."""
+        if self._gate.allows_low_level_commands():
+            return True
+        with self._lock:
+            return self._clock() < self._damp_until
+
     def tick(self, _dt_s: float) -> None:
         if self._gate.allows_low_level_commands():
             if self._watchdog.expired() or not self._link.link_ok():

@@ -76,7 +76,9 @@ class UnitreeRobot:
             if self._loco is None:
                 init_channels(self.domain, self.interface)  # robot type compat applied before any topic
                 self._lowstate = LowStateReader()
-                self._sport = SportStateReader(self._relay_sport_state)
+                self._sport = SportStateReader()
+                if self._sport_listener is not None:
+                    self._sport.set_listener(self._relay_sport_state)
                 self._loco = LocoClient(self.rpc_timeout_s)
                 self._switcher = MotionSwitcherClient(self.mode_timeout_s)
                 self._arm = ArmSdkWriter()
@@ -175,8 +177,11 @@ class UnitreeRobot:
 
     def set_sport_state_listener(self, listener: Callable[[SportState], None] | None) -> None:
         """Call ``listener`` with every rt/sportmodestate sample (age 0), in the DDS listener thread:
-        keep it short. None removes it. May be set before or after connect()."""
+        keep it short. None removes it. May be set before or after connect(). Costs a Python call per
+        sample while set (without one, the reader costs nothing per sample)."""
         self._sport_listener = listener
+        if self._sport is not None:
+            self._sport.set_listener(None if listener is None else self._relay_sport_state)
 
     def _relay_sport_state(self, sample: SportModeState_) -> None:
         listener = self._sport_listener

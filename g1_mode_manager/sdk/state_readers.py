@@ -1,8 +1,11 @@
-"""Subscribers to the robot's state topics that keep the latest sample and when it arrived.
+"""Readers of the robot's state topics that cost nothing per sample in Python.
 
-Handlers run in Cyclone's listener thread (no queue: the latest sample is all we need, and a queue
-would add a thread and latency); they only swap a reference under a lock, so readers in other
-threads always see one consistent (sample, receive time, count) triple.
+The robot publishes rt/lowstate at 500 Hz. A Python listener per sample (GIL, ctypes callback, decode)
+cost ~4 % of a core on its own; here Cyclone keeps only the newest sample (KEEP_LAST 1, in C) and a
+reader takes it when someone asks (``latest()``, ``age_s()``...), decoding only then. "Received" is
+the moment a read found a new sample: it errs late by at most the gap between reads, which the
+node's supervisor keeps at or below 0.1 s (and any active relay far below). A per-sample callback is
+installed only while a listener is set (``set_listener``).
 """
 
 from __future__ import annotations
@@ -16,8 +19,10 @@ from dataclasses import dataclass
 from typing import Any, Final, Generic, TypeVar
 
 from cyclonedds._clayer import ddspy_take as _ddspy_take
-from cyclonedds.core import InstanceState, SampleState, ViewState
-from unitree_sdk2py.core.channel import ChannelSubscriber
+from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.qos import Policy, Qos
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
 
 from g1_mode_manager.core.port import SportState
 from g1_mode_manager.protocol import topics
@@ -29,47 +34,116 @@ _log = logging.getLogger(__name__)
 _ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
-class LatestSample(Generic[T]):
-    """Latest sample of one topic with its monotonic receive time and a count, thread-safe."""
+#: Cyclone keeps only the newest sample; best effort: a lost state sample is superseded 2 ms later, and
+#: acknowledging 500 samples/s would cost CPU for nothing.
+LATEST_ONLY_QOS: Final = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
 
-    def __init__(self, topic: str, msg_type: type[T], on_sample: Callable[[T], None] | None = None) -> None:
+
+def _sdk_participant() -> Any:
+    from unitree_sdk2py.core.channel import ChannelFactory
+
+    participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
+    if participant is None:
+        raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
+    return participant
+
+
+class LatestSample(Generic[T]):
+    """The newest sample of one topic, taken when asked for and decoded once; its receive time and a count.
+
+    Thread-safe: a read takes from Cyclone and updates (sample, receive time, count) under one lock, so
+    every reader sees one consistent triple.
+    """
+
+    def __init__(self, topic: str, msg_type: type, decode: Callable[[bytes], T],
+                 on_sample: Callable[[T], None] | None = None) -> None:  # fmt: skip
+        participant = _sdk_participant()
         self.topic = topic
+        self._decode = decode
         self._lock = threading.Lock()
         self._sample: T | None = None
         self._stamp = 0.0
         self._count = 0
-        self._on_sample = on_sample
-        self._subscriber = ChannelSubscriber(topic, msg_type)
-        self._subscriber.Init(self._handle, 0)
+        self._errors = 0
+        self._callback: Callable[[T], None] | None = None
+        self._listener_lock = threading.Lock()
+        self._listeners: list[Listener] = []  # never freed while we live: cyclonedds may call a freed one
+        self._reader: DataReader | None = DataReader(participant, Topic(participant, topic, msg_type),
+                                                     qos=LATEST_ONLY_QOS)  # fmt: skip
+        if on_sample is not None:
+            self.set_listener(on_sample)
 
-    def _handle(self, sample: T) -> None:
-        now = time.monotonic()
-        with self._lock:
-            self._sample, self._stamp, self._count = sample, now, self._count + 1
-        callback = self._on_sample
-        if callback is not None:
-            try:
-                callback(sample)
-            except Exception:  # a faulty callback must not kill the DDS listener thread
-                _log.exception("callback for %s failed", self.topic)
+    def _read_locked(self) -> T | None:
+        """Take what Cyclone holds (the newest sample, if one came since the last read); the new one or None."""
+        reader = self._reader
+        if reader is None:
+            return None
+        try:
+            taken = _ddspy_take(reader._ref, _ANY_STATE, 4)
+            if isinstance(taken, int):
+                return None
+            data = [d for d, info in taken if info.valid_data]
+            if not data:
+                return None
+            sample = self._decode(data[-1])
+        except Exception:
+            self._errors += 1
+            if self._errors == 1:
+                _log.exception("bad sample on %s", self.topic)
+            return None
+        self._on_new(self._sample, sample)
+        self._sample, self._stamp, self._count = sample, time.monotonic(), self._count + len(data)
+        return sample
+
+    def _on_new(self, previous: T | None, sample: T) -> None:
+        """Hook under the lock when a read found a new sample."""
 
     def latest(self) -> tuple[T | None, float, int]:
-        """(sample or None, its monotonic receive time, samples received so far)."""
+        """(sample or None, its monotonic receive time, samples read so far)."""
         with self._lock:
+            self._read_locked()
             return self._sample, self._stamp, self._count
 
     @property
     def count(self) -> int:
-        with self._lock:
-            return self._count
+        """Samples read so far: it changes when, and only when, a newer sample is there."""
+        return self.latest()[2]
 
     def age_s(self) -> float | None:
         sample, stamp, _ = self.latest()
         return None if sample is None else time.monotonic() - stamp
 
+    def set_listener(self, callback: Callable[[T], None] | None) -> None:
+        """Call ``callback`` with every new sample in Cyclone's receive thread (keep it short); None removes it.
+
+        A Python call per sample: only for who needs every sample (tests, a per-sample mirror).
+        """
+        with self._listener_lock:  # not self._lock: Cyclone waits for a running callback, which takes that one
+            self._callback = callback
+            reader = self._reader
+            if reader is None:
+                return
+            if callback is None:
+                reader.set_listener(None)
+                return
+            listener = Listener(on_data_available=self._on_data)
+            self._listeners.append(listener)
+            reader.set_listener(listener)
+
+    def _on_data(self, _reader: Any) -> None:
+        with self._lock:
+            sample = self._read_locked()
+        callback = self._callback
+        if sample is not None and callback is not None:
+            try:
+                callback(sample)
+            except Exception:  # a faulty callback must not kill the DDS receive thread
+                _log.exception("callback for %s failed", self.topic)
+
     def close(self) -> None:
-        self._on_sample = None
-        self._subscriber.Close()
+        self.set_listener(None)
+        with self._lock:
+            self._reader = None
 
 
 @dataclass(frozen=True)
@@ -111,71 +185,25 @@ def decode_lowstate(data: bytes) -> LowStateSnapshot:
 TICK_RESTART_MS = 1000
 
 
-class LowStateReader:
-    """rt/lowstate (500 Hz on the robot): mode_machine for LowCmd_ and the measured joint positions.
+class LowStateReader(LatestSample[LowStateSnapshot]):
+    """rt/lowstate (500 Hz on the robot): mode_machine for LowCmd_, the measured joint positions, reboots.
 
-    Takes raw samples (every one waiting, keeping the last, where the SDK's reader takes one per
-    notification) and decodes only what the node needs.
+    Decodes only what the node needs, and only when it asks (see the module docstring).
     """
 
     def __init__(self, topic: str = topics.LOWSTATE) -> None:
-        from cyclonedds.core import Listener
-        from cyclonedds.sub import DataReader
-        from cyclonedds.topic import Topic
-        from unitree_sdk2py.core.channel import ChannelFactory
-
-        participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
-        if participant is None:
-            raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
-        self.topic = topic
-        self._lock = threading.Lock()
-        self._snapshot: LowStateSnapshot | None = None
-        self._stamp = 0.0
-        self._count = 0
-        self._errors = 0
         self._restarts = 0
-        self._reader = DataReader(participant, Topic(participant, topic, LowState_),
-                                  listener=Listener(on_data_available=self._on_data))  # fmt: skip
+        super().__init__(topic, LowState_, decode_lowstate)
 
-    def _on_data(self, reader: Any) -> None:
-        try:
-            taken = _ddspy_take(reader._ref, _ANY_STATE, 32)
-            if isinstance(taken, int):
-                return
-            data = [d for d, info in taken if info.valid_data]
-            if not data:
-                return
-            snapshot = decode_lowstate(data[-1])
-        except Exception:
-            self._errors += 1
-            if self._errors == 1:
-                _log.exception("bad sample on %s", self.topic)
-            return
-        now = time.monotonic()
-        with self._lock:
-            previous = self._snapshot
-            if previous is not None and snapshot.tick + TICK_RESTART_MS < previous.tick:
-                self._restarts += 1  # the robot's tick went back: it rebooted
-            self._snapshot, self._stamp, self._count = snapshot, now, self._count + len(data)
-
-    def latest(self) -> tuple[LowStateSnapshot | None, float, int]:
-        """(snapshot or None, its monotonic receive time, samples received so far)."""
-        with self._lock:
-            return self._snapshot, self._stamp, self._count
-
-    @property
-    def count(self) -> int:
-        with self._lock:
-            return self._count
-
-    def age_s(self) -> float | None:
-        snapshot, stamp, _ = self.latest()
-        return None if snapshot is None else time.monotonic() - stamp
+    def _on_new(self, previous: LowStateSnapshot | None, sample: LowStateSnapshot) -> None:
+        if previous is not None and sample.tick + TICK_RESTART_MS < previous.tick:
+            self._restarts += 1  # the robot's tick went back: it rebooted
 
     @property
     def restarts(self) -> int:
         """How often the robot's tick went back (a reboot) since this reader started."""
         with self._lock:
+            self._read_locked()
             return self._restarts
 
     @property
@@ -187,18 +215,15 @@ class LowStateReader:
         snapshot, _, _ = self.latest()
         return None if snapshot is None else snapshot.q
 
-    def close(self) -> None:
-        self._reader = None
-
 
 class SportStateReader(LatestSample[SportModeState_]):
-    """rt/sportmodestate (the loco controller's fsm id and mode); ``on_sample`` lets the node mirror it.
+    """rt/sportmodestate (the loco controller's fsm id and mode), read when asked.
 
-    ``on_sample`` runs in the DDS listener thread: keep it short (e.g. hand off to a ROS publisher).
+    ``on_sample`` (or ``set_listener``) runs in the DDS receive thread for every sample: keep it short.
     """
 
     def __init__(self, on_sample: Callable[[SportModeState_], None] | None = None) -> None:
-        super().__init__(topics.SPORTMODESTATE, SportModeState_, on_sample)
+        super().__init__(topics.SPORTMODESTATE, SportModeState_, SportModeState_.deserialize, on_sample)
 
     def state(self) -> SportState | None:
         sample, stamp, _ = self.latest()
