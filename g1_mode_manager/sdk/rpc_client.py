@@ -106,14 +106,19 @@ class RpcClient(Client):
         return response.data
 
     def call_no_reply(self, name: str, api_id: int, parameter: Any = None) -> None:
-        """Send a request flagged no-reply (the server runs it and answers nothing).
+        """Send a request flagged no-reply (the server runs it and answers nothing): written at once.
 
-        Uses the SDK's own no-reply call. Raises RobotError(3102) only if it could not be sent.
+        The SDK's own ``_CallNoReply`` first waits up to the client's timeout (1 s) for a matched server,
+        polling every 0.1 s: an e-stop's first shot on a dead link sat there, in front of everything
+        after it. Here nothing waits: with no server matched the request reaches nobody, and what
+        follows (the e-stop's Damp with its own timeout) finds that out. Raises RobotError(3102) only
+        if the DDS write itself failed.
         """
         text = "{}" if parameter is None else json.dumps(parameter)
-        code = self._CallNoReply(api_id, text)
-        if code != OK:
-            raise RobotError(name, int(code), f"{self.service} api {api_id} {text} (no-reply)")
+        if api_id not in self._api_ids:
+            raise RobotError(name, ERR_CLIENT_API_NOT_REG, f"api {api_id} not registered for {self.service!r}")
+        if not self._stub.Send(self._request(api_id, text, noreply=True), None):  # None: no wait for a match
+            raise RobotError(name, ERR_CLIENT_SEND, f"{self.service} api {api_id} {text} (no-reply)")
 
     def server_api_version(self, *, timeout_s: float | None = None) -> str:
         """The server's api version (the SDK's internal api 1): a cheap readiness probe."""
