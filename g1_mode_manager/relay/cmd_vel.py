@@ -154,6 +154,9 @@ class CmdVelRelay:
         if in_dead_band(v) and in_dead_band(target):
             self._rest("command below the robot's dead band (0.1)")
             return
+        if self._last_ack is not None and v == self._limiter.current and now - self._last_send < self._period_s:
+            return  # the robot runs exactly this already: only the keep-alive repeats it (a 100 Hz stream of
+            # one value costs cmd_vel_rate_hz Moves a second, not max_rate_hz)
         with self._gate.forwarding(modes.allows_cmd_vel) as allowed:
             if allowed:
                 self._send_move(v, now)
