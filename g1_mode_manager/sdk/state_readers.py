@@ -216,6 +216,16 @@ class LowStateReader(LatestSample[LowStateSnapshot]):
         return None if snapshot is None else snapshot.q
 
 
+_SPORT: Final = struct.Struct("<IIIf")  # fsm_id, fsm_mode, task_id (uint32), task_time (float32)
+
+
+def decode_sport_state(data: bytes) -> SportModeState_:
+    """A serialised SportModeState_ by struct (~1 us instead of cyclonedds' ~30 us); other encodings the slow way."""
+    if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= 4 + _SPORT.size:
+        return SportModeState_(*_SPORT.unpack_from(data, 4))
+    return SportModeState_.deserialize(data)
+
+
 class SportStateReader(LatestSample[SportModeState_]):
     """rt/sportmodestate (the loco controller's fsm id and mode), read when asked.
 
@@ -223,7 +233,7 @@ class SportStateReader(LatestSample[SportModeState_]):
     """
 
     def __init__(self, on_sample: Callable[[SportModeState_], None] | None = None) -> None:
-        super().__init__(topics.SPORTMODESTATE, SportModeState_, SportModeState_.deserialize, on_sample)
+        super().__init__(topics.SPORTMODESTATE, SportModeState_, decode_sport_state, on_sample)
 
     def state(self) -> SportState | None:
         sample, stamp, _ = self.latest()
