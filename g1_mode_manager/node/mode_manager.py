@@ -163,7 +163,8 @@ class ModeManagerNode(Node):
             from g1_mode_manager.node.joint_states import LowStatePublisher
 
             self._lowstate_pub = LowStatePublisher(self, self._port)
-            self.create_timer(1.0 / s.joint_state_rate_hz, self._lowstate_pub.publish)
+            self._state_out.append(PeriodicWorker("joint_states", s.joint_state_rate_hz,
+                                                  self._while_ok(self._lowstate_pub.publish), self._worker_error))
         self._service_side.start()
         self._streams.start()
         for publisher in self._state_out:
