@@ -42,10 +42,35 @@ NODE_PARAMS = ("rpc_timeout_s:=4.0", "select_timeout_s:=10.0", "release_timeout_
 SETTLE_S = 12.0  # after the faults clear, supervision must get the robot damped within this
 
 
+#: Namespaces the scenarios' nodes cycle through: the next node starts while the current one runs and the
+#: previous one may still be leaving the graph. The test's ROS entities are made once per namespace:
+#: destroying them while the client's executor waits on them kills its spin thread (rclpy InvalidHandle).
+NAMESPACES = 3
+
+
+class Endpoints:
+    """The test's subscription, client and publishers for one namespace, made once and reused."""
+
+    def __init__(self, ros: RosClient, ns: str) -> None:
+        self.claims = Claims()
+        self.mode_sub = ros.node.create_subscription(Mode, f"{ns}/g1_mode_manager/mode", self._on_mode, MODE_QOS)
+        self.estop_client = ros.node.create_client(Trigger, f"{ns}/g1_mode_manager/estop")
+        self.estop_pubs = {
+            "topic_reliable": ros.node.create_publisher(Bool, f"{ns}/estop", QoSProfile(depth=10)),
+            "topic_best_effort": ros.node.create_publisher(
+                Bool, f"{ns}/estop", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)),
+        }
+
+    def _on_mode(self, msg: Mode) -> None:
+        claims = self.claims
+        with claims.lock:
+            claims.modes.append((time.monotonic(), msg))
+
+
 def _start_node(k: int):
     """The node of scenario k, in a namespace of its own with its own /estop and /cmd_vel, so it can start
     (UNINITIALIZED: it touches nothing on the robot) while scenario k-1 still runs."""
-    ns = f"/chaos{k}"
+    ns = f"/chaos{k % NAMESPACES}"
     node = start_mode_manager(int(os.environ["G1_TEST_SDK_DOMAIN"]), *NODE_PARAMS,
                               remaps=(f"__ns:={ns}", f"/estop:={ns}/estop", f"/cmd_vel:={ns}/cmd_vel"))
     return ns, node
@@ -58,6 +83,7 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
     sim = shared_sim_status()
     sim.wait_ready(15.0)
     record = SimRecord(record_path)
+    endpoints = {f"/chaos{k}": Endpoints(ros, f"/chaos{k}") for k in range(NAMESPACES)}
     failures: list[str] = []
     latencies: list[float] = []
     started = time.monotonic()
@@ -69,7 +95,7 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
                 if i + 1 < N:
                     upcoming = starter.submit(_start_node, i + 1)
                 seed = SEED + i
-                bad = _scenario(seed, Stack(bridge, node, ros, sim, record, ns), latencies)
+                bad = _scenario(seed, Stack(bridge, node, ros, sim, record, ns), endpoints[ns], latencies)
                 if bad:
                     failures.append(f"seed {seed}: " + "; ".join(bad))
                     print(f"chaos: VIOLATION seed {seed}: {bad}", flush=True)
@@ -92,25 +118,17 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
     assert not failures, "\n".join(failures)
 
 
-def _scenario(seed: int, stack: Stack, latencies: list[float]) -> list[str]:
+def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float]) -> list[str]:
     p = plan(seed)
     ros, sim, node = stack.ros, stack.sim, stack.node
-    claims = Claims()
-
-    def on_mode(msg: Mode) -> None:
-        with claims.lock:
-            claims.modes.append((time.monotonic(), msg))
-
-    mode_sub = ros.node.create_subscription(Mode, stack.name("mode"), on_mode, MODE_QOS)
-    estop_client = ros.node.create_client(Trigger, stack.name("estop"))
-    estop_topic = f"{stack.ns}/estop"
-    estop_pub = ros.node.create_publisher(Bool, estop_topic, QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
-                                          if p.estop_via == "topic_best_effort" else QoSProfile(depth=10))
+    claims = ends.claims = Claims()
+    estop_client = ends.estop_client
+    estop_pub = ends.estop_pubs.get(p.estop_via)
     try:
         sim.reset()
         ros.wait_node_answers(f"{stack.ns}/g1_mode_manager")
         assert estop_client.wait_for_service(timeout_sec=10.0)
-        assert wait_until(lambda: estop_pub.get_subscription_count() >= 1, 10.0)
+        assert estop_pub is None or wait_until(lambda: estop_pub.get_subscription_count() >= 1, 10.0)
         stack.set_faults(p.faults)
         stop = threading.Event()
         t0 = time.monotonic()
@@ -142,9 +160,6 @@ def _scenario(seed: int, stack: Stack, latencies: list[float]) -> list[str]:
         t_stop = time.monotonic()
         code = node.stop()  # before the next reset: its supervision would damp the fresh robot
         stop_s = time.monotonic() - t_stop
-        ros.node.destroy_subscription(mode_sub)
-        ros.node.destroy_client(estop_client)
-        ros.node.destroy_publisher(estop_pub)
         if code not in (0, None) or stop_s > 5.0:
             print(f"chaos seed {seed}: node exited with {code} after {stop_s:.1f} s:\n{node.output()[-3000:]}")
 
