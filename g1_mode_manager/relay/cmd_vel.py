@@ -92,9 +92,12 @@ class CmdVelRelay:
             self._events.count("cmd_vel_clamped")
             self._events.log("warn", "cmd_vel_clamped", result.reason)
         with self._lock:
+            changed = result.velocity != self._target
             self._target = result.velocity
+        restarted = self._watchdog.expired()
         self._watchdog.feed()
-        self._wake.set()
+        if changed or restarted:  # a repeat of a running command is the keep-alive tick's business
+            self._wake.set()
         return result
 
     def on_leave(self, source: Mode, _target: Mode) -> None:
