@@ -1,9 +1,11 @@
-"""make bench: e-stop latency, cmd_vel -> Move latency and node CPU, against the simulated G1.
+"""make bench: e-stop latency, cmd_vel -> Move latency and node CPU against the simulated G1, each beside
+the raw SDK's own figure from the same run.
 
-Everything runs on loopback on domains of its own. The sim bridge stamps every RPC request with
-CLOCK_MONOTONIC when its server thread takes it; that clock is shared by all processes of the
-machine, so "request sent" (here) and "received by the robot" (there) are directly comparable.
-Prints a table; not part of the test pass/fail.
+Everything runs on loopback on domains of its own. "Received" is the sim's own record (``--record``:
+every request stamped with CLOCK_MONOTONIC when its server thread takes it); that clock is shared by
+all processes of the machine, so "sent" (here) and "received by the robot" (there) compare directly.
+Node CPU is the node process's own utime + stime from /proc (robust to other load on the machine).
+Prints a table and, last, one ``SUMMARY key=value ...`` line; not part of the test pass/fail.
 """
 
 from __future__ import annotations
@@ -15,23 +17,26 @@ import platform
 import statistics
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "test"))  # test/support: process management and the sim status client
+sys.path.insert(0, str(REPO / "test"))  # test/support: process management, the sim's record
 
 os.environ.setdefault("ROS_DOMAIN_ID", str(90 + os.getpid() % 10))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 SDK_DOMAIN = 200 + os.getpid() % 20
 
 from g1_mode_manager.protocol import api_ids  # noqa: E402
+from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES  # noqa: E402
 from support.mode_manager import RosClient, start_mode_manager, wait_until  # noqa: E402
-from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge  # noqa: E402
+from support.sim_bridge import shared_sim_status, start_sim_bridge  # noqa: E402
+from support.sim_record import is_damp, requests, velocity_of  # noqa: E402
 
-SPORT, SWITCHER = api_ids.LOCO_SERVICE, api_ids.MOTION_SWITCHER_SERVICE
+NODE = "/g1_mode_manager"
 
 
 def pct(values: list[float], q: float) -> float:
@@ -39,45 +44,120 @@ def pct(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
 
 
-def summary(values_s: list[float]) -> str:
-    ms = [v * 1000 for v in values_s]
-    return f"median {statistics.median(ms):7.2f} ms   p99 {pct(ms, 0.99):7.2f} ms   max {max(ms):7.2f} ms   (n={len(ms)})"
+class Stats:
+    """Latencies in ms."""
+
+    def __init__(self, values_s: list[float]) -> None:
+        self.ms = [v * 1000 for v in values_s]
+
+    @property
+    def n(self) -> int:
+        return len(self.ms)
+
+    def median(self) -> float:
+        return statistics.median(self.ms) if self.ms else float("nan")
+
+    def p99(self) -> float:
+        return pct(self.ms, 0.99) if self.ms else float("nan")
+
+    def text(self) -> str:
+        if not self.ms:
+            return "no samples"
+        return f"median {self.median():7.2f}   p99 {self.p99():7.2f}   max {max(self.ms):7.2f} ms   (n={self.n})"
+
+
+class Sim:
+    """A sim bridge with its record, and what the bench reads from it."""
+
+    def __init__(self, faults: dict | None = None) -> None:
+        self.path = Path(tempfile.mkdtemp(prefix="g1_bench_")) / "record.jsonl"
+        self.proc = start_sim_bridge(SDK_DOMAIN, speed=1.0, faults=faults, extra_args=["--record", str(self.path)])
+        self._events: list[dict] = []
+        self._offset = 0
+        shared_sim_status().wait_ready(15.0)
+
+    def events(self, since: float) -> list[dict]:
+        """Record events at or after ``since``, read incrementally (the file grows by every frame)."""
+        if self.path.exists():
+            with self.path.open() as f:
+                f.seek(self._offset)
+                for line in f:
+                    if not line.endswith("\n"):
+                        break  # a line still being written
+                    self._offset += len(line.encode())
+                    self._events.append(json.loads(line))
+        return [e for e in self._events if e["t"] >= since]
+
+    def reset(self) -> None:
+        """Back to the boot state (standing, service "ai"), e.g. after an e-stop dropped the robot."""
+        shared_sim_status().reset()
+
+    def first_request(self, api_id: int, t0: float, timeout_s: float,
+                      match: Callable[[dict], bool] = lambda _e: True) -> float | None:  # fmt: skip
+        """Receive time of the first request of ``api_id`` at or after t0 that matches, or None."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            hits = [e["t"] for e in requests(self.events(t0), api_id) if match(e)]
+            if hits:
+                return min(hits)
+            if time.monotonic() > deadline:
+                return None
+            time.sleep(0.005)
+
+    def count(self, api_id: int, t0: float, t1: float) -> int:
+        return sum(1 for e in requests(self.events(t0), api_id) if e["t"] <= t1)
+
+    def stop(self) -> None:
+        self.proc.stop()
 
 
 class Bench:
-    def __init__(self, sim: SimStatus, ros: RosClient) -> None:
-        self.sim = sim
+    def __init__(self, ros: RosClient) -> None:
         self.ros = ros
-
-    def recent_requests(self, service: str, api_id: int) -> list[dict]:
-        return self.sim.get().get("recent_requests", {}).get(service, {}).get(str(api_id), [])
-
-    def wait_request_after(self, service: str, api_id: int, t0: float, timeout_s: float,
-                           match: Callable[[dict], bool] = lambda _r: True) -> float | None:
-        """Monotonic receive time of the first request of api_id at or after t0, or None."""
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            hits = [r["t"] for r in self.recent_requests(service, api_id) if r["t"] >= t0 and match(r)]
-            if hits:
-                return min(hits)
-            time.sleep(0.002)
-        return None
+        self._pubs: dict[tuple[str, int], object] = {}
 
     def set_mode(self, name: str):
         from g1_mode_manager_msgs.srv import SetMode
 
-        return self.ros.call(SetMode, "/g1_mode_manager/set_mode", SetMode.Request(mode_name=name))
+        return self.ros.call(SetMode, f"{NODE}/set_mode", SetMode.Request(mode_name=name))
+
+    def set_mode_in_background(self, name: str) -> None:
+        """A transition left in flight (the sim holds its SelectMode); its outcome does not matter."""
+
+        def run() -> None:
+            try:
+                self.set_mode(name)
+            except (TimeoutError, RuntimeError):
+                pass  # the node was stopped under it
+
+        threading.Thread(target=run, daemon=True).start()
+
+    def loco(self, command: str) -> None:
+        from g1_mode_manager_msgs.srv import LocoCommand
+
+        result = self.ros.call(LocoCommand, f"{NODE}/loco_command", LocoCommand.Request(command=command))
+        assert result.success, result.message
+
+    def publisher(self, msg_type, topic: str, k: int = 0):
+        """Publishers are kept for the whole run (never collected while DDS may call into them)."""
+        key = (topic, k)
+        if key not in self._pubs:
+            self._pubs[key] = self.ros.node.create_publisher(msg_type, topic, 10)
+        pub = self._pubs[key]
+        assert wait_until(lambda: pub.get_subscription_count() > 0, 10.0), f"nobody subscribes to {topic}"
+        return pub
 
     def estop_client(self):
         """A ready ~/estop client, so that the timed call does not include discovery."""
         from std_srvs.srv import Trigger
 
-        client = self.ros.node.create_client(Trigger, "/g1_mode_manager/estop")
+        client = self.ros.node.create_client(Trigger, f"{NODE}/estop")
         assert client.wait_for_service(timeout_sec=10.0)
         time.sleep(0.2)  # let the response reader match too
         return client
 
-    def estop(self, client):
+    @staticmethod
+    def estop(client):
         from std_srvs.srv import Trigger
 
         future = client.call_async(Trigger.Request())
@@ -87,27 +167,85 @@ class Bench:
         return future.result()
 
 
-def estop_latency(bench: Bench, samples: int, slow_select: bool) -> tuple[list[float], list[float]]:
-    """Per sample: a fresh node (EMERGENCY is final); HIGH_LEVEL (or a SelectMode held by the sim); e-stop."""
+class Flood:
+    """/cmd_vel from two publishers at ``rate_hz`` each (a thread each), value settable while running."""
+
+    def __init__(self, bench: Bench, rate_hz: float, vx: float) -> None:
+        from geometry_msgs.msg import Twist
+
+        self.vx = vx
+        self.sent = 0
+        self._stop = threading.Event()
+        self._pubs = [bench.publisher(Twist, "/cmd_vel", k) for k in (1, 2)]
+        self._period = 1.0 / rate_hz
+        self._threads = [threading.Thread(target=self._run, args=(p,), daemon=True) for p in self._pubs]
+        self._msg_type = Twist
+
+    def _run(self, pub) -> None:
+        msg = self._msg_type()
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            msg.linear.x = self.vx
+            pub.publish(msg)
+            self.sent += 1
+            next_t += self._period
+            delay = next_t - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            else:
+                next_t = time.monotonic()
+
+    def __enter__(self) -> Flood:
+        self.started = time.monotonic()
+        for t in self._threads:
+            t.start()
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(2.0)
+        self.rate_hz = self.sent / 2 / (time.monotonic() - self.started)
+
+
+def fresh_node(bench: Bench, mode: str = "high_level", walk: bool = False):
+    node = start_mode_manager(SDK_DOMAIN)
+    bench.ros.wait_node_answers()
+    assert bench.set_mode(mode).success
+    if walk:
+        bench.loco("start")
+    return node
+
+
+def stop_node(bench: Bench, node) -> None:
+    node.stop()
+    bench.ros.wait_service_gone(f"{NODE}/set_mode")
+
+
+def estop_latency(bench: Bench, sim: Sim, samples: int, case: str) -> tuple[Stats, Stats]:
+    """Per sample a fresh node (EMERGENCY is final), then the e-stop under ``case``:
+    'plain' (HIGH_LEVEL), 'select' (a SelectMode held by the sim in flight) or 'flood' (walking, /cmd_vel
+    at 1 kHz from two publishers)."""
     to_robot, to_reply = [], []
     for _ in range(samples):
-        node = start_mode_manager(SDK_DOMAIN)
-        bench.ros.wait_node_answers()
+        if case == "flood":
+            sim.reset()  # the last sample's e-stop dropped the robot; walking starts from standing
+        node = fresh_node(bench, "low_level" if case == "select" else "high_level", walk=case == "flood")
         client = None
+        flood = None
         try:
-            if slow_select:
-                assert bench.set_mode("low_level").success
-                selects_before = time.monotonic()
-                worker = threading.Thread(target=bench.set_mode, args=("high_level",), daemon=True)
-                worker.start()
-                assert bench.wait_request_after(SWITCHER, api_ids.MS_SELECT_MODE, selects_before, 5.0)
-            else:
-                assert bench.set_mode("high_level").success
+            if case == "select":
+                before = time.monotonic()
+                bench.set_mode_in_background("high_level")
+                assert sim.first_request(api_ids.MS_SELECT_MODE, before, 5.0) is not None
             client = bench.estop_client()
+            if case == "flood":
+                flood = Flood(bench, 1000.0, 0.3).__enter__()
+                time.sleep(0.5)
             t0 = time.monotonic()
-            reply = bench.estop(client)
+            reply = Bench.estop(client)
             t_reply = time.monotonic()
-            t_damp = bench.wait_request_after(SPORT, api_ids.LOCO_SET_FSM_ID, t0, 5.0)
+            t_damp = sim.first_request(api_ids.LOCO_SET_FSM_ID, t0, 5.0, is_damp)
             assert t_damp is not None and reply.success, reply.message
             to_robot.append(t_damp - t0)
             to_reply.append(t_reply - t0)
@@ -115,52 +253,62 @@ def estop_latency(bench: Bench, samples: int, slow_select: bool) -> tuple[list[f
             print(f"mode_manager output:\n{node.output()[-3000:]}", file=sys.stderr)
             raise
         finally:
-            node.stop()
-            bench.ros.wait_service_gone("/g1_mode_manager/set_mode")
+            if flood is not None:
+                flood.__exit__()
+            stop_node(bench, node)
             if client is not None:
                 bench.ros.node.destroy_client(client)
-    return to_robot, to_reply
+    return Stats(to_robot), Stats(to_reply)
 
 
-def cmd_vel_latency(bench: Bench, samples: int) -> list[float]:
-    """Publish a new vx; time until the sim receives a SetVelocity carrying it (20 Hz relay + RPC)."""
+def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = None) -> Stats:
+    """Publish a new vx; time until the robot receives a SetVelocity carrying it. With a flood running,
+    the flood itself switches to the new value at t0 (two publishers at 1 kHz, latest wins)."""
     from geometry_msgs.msg import Twist
 
-    pub = bench.ros.node.create_publisher(Twist, "/cmd_vel", 10)
-    assert wait_until(lambda: pub.get_subscription_count() > 0, 10.0)
+    pub = bench.publisher(Twist, "/cmd_vel")
     out = []
     for i in range(samples):
         vx = round(0.20 + 0.01 * (i % 2), 2)  # alternate: each value differs from the last, within one ramp step
         msg = Twist()
         msg.linear.x = vx
         t0 = time.monotonic()
-        pub.publish(msg)
-        t = bench.wait_request_after(SPORT, api_ids.LOCO_SET_VELOCITY, t0, 2.0,
-                                     lambda r, vx=vx: abs(json.loads(r["parameter"])["velocity"][0] - vx) < 1e-6)
+        if flood is None:
+            pub.publish(msg)
+        else:
+            flood.vx = vx
+        t = sim.first_request(api_ids.LOCO_SET_VELOCITY, t0, 2.0,
+                              lambda e, vx=vx: abs(velocity_of(e)[0] - vx) < 1e-6)  # fmt: skip
         if t is not None:
             out.append(t - t0)
         for _ in range(3):  # keep the watchdog fed while waiting a little between samples
-            pub.publish(msg)
+            if flood is None:
+                pub.publish(msg)
             time.sleep(0.03)
-    return out
+    return Stats(out)
 
 
-def raw_move_round_trip(samples: int) -> list[float]:
+_RAW: dict = {}  # SDK clients must never be collected
+
+
+def raw_round_trips(samples: int) -> tuple[Stats, Stats]:
+    """The SDK alone from this process: GetFsmId (an RPC) and SetVelocity (a Move) round trips."""
     from g1_mode_manager.sdk.loco_client import LocoClient
 
-    client = _RAW_CLIENTS.setdefault("loco", LocoClient(1.0))  # SDK clients must never be collected
+    client = _RAW.setdefault("loco", LocoClient(1.0))
     client.wait_ready(5.0)
-    out = []
+    rpc, move = [], []
     for _ in range(samples):
         t0 = time.monotonic()
+        client.get_fsm_id()
+        rpc.append(time.monotonic() - t0)
+        time.sleep(0.005)
+        t0 = time.monotonic()
         client.set_velocity(0.2, 0.0, 0.0, 1.0)
-        out.append(time.monotonic() - t0)
-        time.sleep(0.01)
+        move.append(time.monotonic() - t0)
+        time.sleep(0.005)
     client.stop_move()
-    return out
-
-
-_RAW_CLIENTS: dict = {}
+    return Stats(rpc), Stats(move)
 
 
 def cpu_percent(pid: int, seconds: float, during: Callable[[], None] | None = None) -> float:
@@ -179,77 +327,152 @@ def cpu_percent(pid: int, seconds: float, during: Callable[[], None] | None = No
     return 100.0 * (ticks() - start_ticks) / hz / (time.monotonic() - start)
 
 
+def paced(publish: Callable[[], None], rate_hz: float) -> Callable[[], None]:
+    """A step for cpu_percent that publishes at rate_hz on an absolute schedule."""
+    state = {"next": time.monotonic()}
+
+    def step() -> None:
+        publish()
+        state["next"] += 1.0 / rate_hz
+        delay = state["next"] - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        else:
+            state["next"] = time.monotonic()
+
+    return step
+
+
+def cpu_rows(bench: Bench, seconds: float) -> list[tuple[str, float]]:
+    from g1_mode_manager_msgs.msg import JointCommand
+    from geometry_msgs.msg import Twist
+    from sensor_msgs.msg import JointState
+
+    rows: list[tuple[str, float]] = []
+    node = fresh_node(bench, walk=True)
+    try:
+        time.sleep(2.0)
+        rows.append(("node CPU, HIGH_LEVEL walking, no commands", cpu_percent(node.proc.pid, seconds)))
+        pub = bench.publisher(Twist, "/cmd_vel")
+        msg = Twist()
+        msg.linear.x = 0.3
+        for rate in (10, 100, 1000):
+            rows.append((f"node CPU, /cmd_vel at {rate} Hz", cpu_percent(node.proc.pid, seconds,
+                                                                         paced(lambda: pub.publish(msg), rate))))
+            time.sleep(1.0)
+        arm = bench.publisher(JointState, f"{NODE}/arm_cmd")
+        arm_msg = JointState(name=list(ARM_SDK_JOINT_NAMES[3:5]), position=[0.3, 0.2])
+        rows.append(("node CPU, ~/arm_cmd at 50 Hz (arm_sdk frames at 50 Hz)",
+                     cpu_percent(node.proc.pid, seconds, paced(lambda: arm.publish(arm_msg), 50))))
+        time.sleep(4.0)  # the arms ramp out
+    finally:
+        stop_node(bench, node)
+    node = fresh_node(bench, "low_level")
+    try:
+        low = bench.publisher(JointCommand, f"{NODE}/lowcmd")
+        n = len(JOINT_NAMES)
+        low_msg = JointCommand(name=list(JOINT_NAMES), q=[0.0] * n, dq=[0.0] * n, tau=[0.0] * n, kp=[0.0] * n,
+                               kd=[2.0] * n)  # fmt: skip
+        time.sleep(1.0)
+        rows.append(("node CPU, LOW_LEVEL, no commands (damping frames at 50 Hz)", cpu_percent(node.proc.pid, seconds)))
+        rows.append(("node CPU, LOW_LEVEL, ~/lowcmd at 500 Hz",
+                     cpu_percent(node.proc.pid, seconds, paced(lambda: low.publish(low_msg), 500))))
+    finally:
+        stop_node(bench, node)
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=20, help="e-stop samples per case (each starts a node)")
+    parser.add_argument("--cpu-seconds", type=float, default=10.0, help="length of each CPU measurement")
     args = parser.parse_args(argv)
     from g1_mode_manager.protocol.dds import init_channels
 
     init_channels(SDK_DOMAIN, "lo")
     rows: list[tuple[str, str]] = []
-    bridge = start_sim_bridge(SDK_DOMAIN, speed=1.0)
+    summary: dict[str, float] = {}
     ros = RosClient("bench")
+    bench = Bench(ros)
+    sim = Sim()
     try:
-        sim = shared_sim_status()
-        sim.wait_ready(15.0)
-        bench = Bench(sim, ros)
-        if "recent_requests" not in sim.get():
-            print("the sim bridge does not report request times (recent_requests): cannot measure", file=sys.stderr)
-            return 2
-        robot, reply = estop_latency(bench, args.samples, slow_select=False)
-        rows += [("e-stop: ~/estop call -> Damp received by the robot", summary(robot)),
-                 ("e-stop: ~/estop call -> service reply (Damp acknowledged)", summary(reply))]
-        bridge.stop()
-        bridge = start_sim_bridge(SDK_DOMAIN, speed=1.0, faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
-        sim = shared_sim_status()
-        sim.wait_ready(15.0)
-        bench = Bench(sim, ros)
-        robot, reply = estop_latency(bench, max(3, args.samples // 4), slow_select=True)
-        rows += [("e-stop during a SelectMode held 2 s: -> Damp received", summary(robot)),
-                 ("e-stop during a SelectMode held 2 s: -> reply (after re-select)", summary(reply))]
-        bridge.stop()
-        bridge = start_sim_bridge(SDK_DOMAIN, speed=1.0)
-        sim = shared_sim_status()
-        sim.wait_ready(15.0)
-        bench = Bench(sim, ros)
-        node = start_mode_manager(SDK_DOMAIN)
-        bench.ros.wait_node_answers()
-        try:
-            assert bench.set_mode("high_level").success
-            from g1_mode_manager_msgs.srv import LocoCommand
+        robot, reply = estop_latency(bench, sim, args.samples, "plain")
+        rows += [("~/estop call -> Damp received by the robot", robot.text()),
+                 ("~/estop call -> service reply (robot verified damped)", reply.text())]
+        summary.update(estop_damp_p99_ms=robot.p99())
+        few = max(3, args.samples // 4)
+        robot, _ = estop_latency(bench, sim, few, "flood")
+        rows.append(("~/estop during /cmd_vel 2 x 1 kHz -> Damp received", robot.text()))
 
-            start = ros.call(LocoCommand, "/g1_mode_manager/loco_command", LocoCommand.Request(command="start"))
-            assert start.success, start.message
-            time.sleep(2.0)
-            idle_cpu = cpu_percent(node.proc.pid, 10.0)
-            rows.append(("node CPU, HIGH_LEVEL, no cmd_vel", f"{idle_cpu:5.1f} % of one core"))
-            rows.append(("cmd_vel publish -> Move received (relay at 20 Hz)", summary(cmd_vel_latency(bench, 100))))
-            time.sleep(1.0)  # the node's watchdog stops the robot; the robot stays in walk mode (fsm 500)
-            rows.append(("raw SDK Move (SetVelocity) round trip, same run", summary(raw_move_round_trip(200))))
+        sim.reset()
+        node = fresh_node(bench, walk=True)
+        try:
+            plain = cmd_vel_latency(bench, sim, 100)
+            rows.append(("/cmd_vel publish -> Move received", plain.text()))
+            summary.update(cmd_vel_median_ms=plain.median(), cmd_vel_p99_ms=plain.p99())
+            with Flood(bench, 1000.0, 0.2) as flood:
+                flooded = cmd_vel_latency(bench, sim, 50, flood)
+            rows.append((f"/cmd_vel 2 x {flood.rate_hz:.0f} Hz -> new value's Move received", flooded.text()))
+            time.sleep(1.0)  # the node's watchdog stops the robot; it stays in walk mode (fsm 500): Moves pass
+            raw_rpc, raw_move = raw_round_trips(200)
+            rows[:0] = [("raw SDK RPC (GetFsmId) round trip, this run", raw_rpc.text()),
+                        ("raw SDK Move (SetVelocity) round trip, this run", raw_move.text())]
+            summary.update(raw_rpc_p99_ms=raw_rpc.p99(), raw_move_median_ms=raw_move.median(),
+                           raw_move_p99_ms=raw_move.p99())
+        finally:
+            stop_node(bench, node)
+        sim.stop()
+
+        sim = Sim(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
+        robot, reply = estop_latency(bench, sim, few, "select")
+        rows += [("~/estop during a SelectMode held 2 s -> Damp received", robot.text()),
+                 ("~/estop during a SelectMode held 2 s -> reply (after re-select)", reply.text())]
+        node = fresh_node(bench, "low_level")
+        try:  # a transition in flight forwards nothing: count the Moves that reach the robot meanwhile
             from geometry_msgs.msg import Twist
 
-            pub = ros.node.create_publisher(Twist, "/cmd_vel", 10)
-            wait_until(lambda: pub.get_subscription_count() > 0, 10.0)
+            t0 = time.monotonic()
+            bench.set_mode_in_background("high_level")
+            pub = bench.publisher(Twist, "/cmd_vel")
             msg = Twist()
             msg.linear.x = 0.3
-
-            def publish_100hz() -> None:
+            for _ in range(150):
                 pub.publish(msg)
                 time.sleep(0.01)
-
-            busy_cpu = cpu_percent(node.proc.pid, 10.0, publish_100hz)
-            rows.append(("node CPU, HIGH_LEVEL, cmd_vel at 100 Hz", f"{busy_cpu:5.1f} % of one core"))
+            moves = sim.count(api_ids.LOCO_SET_VELOCITY, t0, time.monotonic())
+            rows.append(("/cmd_vel at 100 Hz during a SelectMode held 2 s", f"{moves} Moves received (none may pass "
+                         "during a transition)"))
         finally:
-            node.stop()
+            stop_node(bench, node)
+        sim.stop()
+
+        sim = Sim()
+        for name, value in cpu_rows(bench, args.cpu_seconds):
+            rows.append((name, f"{value:5.1f} % of one core"))
+            if name == "node CPU, HIGH_LEVEL walking, no commands":
+                summary["cpu_idle_pct"] = value
+            elif name == "node CPU, /cmd_vel at 100 Hz":
+                summary["cpu_100hz_pct"] = value
     finally:
         ros.close()
-        bridge.stop()
+        sim.stop()
     cpu = subprocess.run(["sh", "-c", "grep -m1 'model name' /proc/cpuinfo | cut -d: -f2"],
                          capture_output=True, text=True).stdout.strip()
-    print(f"\nmachine: {platform.node()} | {cpu} | {os.cpu_count()} cores | Python {platform.python_version()}")
+    load = os.getloadavg()[0]
+    print(f"\nmachine: {platform.node()} | {cpu} | {os.cpu_count()} cores | Python {platform.python_version()} | "
+          f"load average {load:.2f} at the end")
     width = max(len(r[0]) for r in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}")
+    goals = [("e-stop p99 <= 1.5 x raw RPC p99", summary["estop_damp_p99_ms"] <= 1.5 * summary["raw_rpc_p99_ms"]),
+             ("cmd_vel median <= raw Move median + 0.5 ms",
+              summary["cmd_vel_median_ms"] <= summary["raw_move_median_ms"] + 0.5),
+             ("cmd_vel p99 <= raw Move p99 + 2 ms", summary["cmd_vel_p99_ms"] <= summary["raw_move_p99_ms"] + 2.0),
+             ("idle CPU <= 2 %", summary["cpu_idle_pct"] <= 2.0), ("100 Hz CPU <= 6 %", summary["cpu_100hz_pct"] <= 6.0)]
+    print("goals: " + ", ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in goals))
+    keys = ("estop_damp_p99_ms", "raw_rpc_p99_ms", "cmd_vel_median_ms", "cmd_vel_p99_ms", "raw_move_median_ms",
+            "raw_move_p99_ms", "cpu_idle_pct", "cpu_100hz_pct")
+    print("SUMMARY " + " ".join(f"{k}={summary[k]:.2f}" for k in keys))
     return 0
 
 
