@@ -3,9 +3,9 @@
     ros2 launch g1_mode_manager sim.launch.py [domain:=0] [namespace:=] [speed:=1.0] [viewer:=false]
 
 ``domain`` is the Unitree SDK2 (Cyclone DDS) domain of the robot side, not ROS_DOMAIN_ID. With a
-``namespace`` (e.g. /g1_a) the node serves /g1_a/g1_mode_manager/set_mode, listens to /g1_a/cmd_vel and
-publishes /g1_a/joint_states; /estop stays global (the fleet-wide button). For two robots, launch twice
-with different ``domain`` and ``namespace``.
+``namespace`` (e.g. /g1_a) the node serves /g1_a/g1_mode_manager/set_mode, listens to /g1_a/cmd_vel;
+the sim publishes /g1_a/joint_states and /g1_a/odom; /estop stays global (the fleet-wide button), and so does
+the sim's /clock. For two robots, launch twice with different ``domain`` and ``namespace``.
 """
 
 from __future__ import annotations
@@ -40,8 +40,8 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument("viewer", default_value="false", description="open the MuJoCo viewer (needs a display)"),
         DeclareLaunchArgument("params_file", default_value=default_params, description="mode manager parameters"),
         DeclareLaunchArgument("joint_state_rate_hz", default_value="0.0",
-                              description="mode manager joint_states/~/imu rate, Hz (the sim publishes its own "
-                                          "/joint_states in the root namespace)"),
+                              description="mode manager joint_states/~/imu rate, Hz (0 = off: the sim publishes "
+                                          "<namespace>/joint_states itself, from MuJoCo)"),
         Node(package=PACKAGE, executable="sim_bridge", namespace=namespace, output="screen",
              arguments=bridge_args, condition=UnlessCondition(viewer)),
         Node(package=PACKAGE, executable="sim_bridge", namespace=namespace, output="screen",

@@ -71,8 +71,9 @@ class BridgeNode(Node):
         self.on_faults: Callable[[str], None] | None = None
         self.on_speed: Callable[[float], None] | None = None
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._joint_pub = self.create_publisher(JointState, "/joint_states", 10)
-        self._odom_pub = self.create_publisher(Odometry, "/odom", 10)
+        # relative: a sim launched in a namespace (one per robot) has its own; /clock stays global (ROS convention)
+        self._joint_pub = self.create_publisher(JointState, "joint_states", 10)
+        self._odom_pub = self.create_publisher(Odometry, "odom", 10)
         self._clock_pub = self.create_publisher(Clock, "/clock", 10)
         self._joint_msg = JointState(name=list(JOINT_NAMES))
         self._odom_msg = Odometry()
