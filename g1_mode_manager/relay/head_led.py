@@ -142,7 +142,12 @@ class HeadLed:
         return self._sent
 
     def tick(self, _dt_s: float = 0.0) -> None:
-        voice = self._voice()
+        try:
+            voice = self._voice()  # may create the voice client (DDS entities): can fail like a call
+        except Exception as exc:
+            self._events.count("head_led_failures")
+            self._events.log("warn", "head_led", f"voice service unavailable: {exc}")
+            return
         if voice is None:
             return
         mode = self._mode()

@@ -107,6 +107,16 @@ def test_failures_are_counted_logged_and_retried_never_raised(events, clock, log
     assert any("head LED not set" in text for _level, text in logs)
 
 
+def test_a_voice_port_that_cannot_be_made_is_counted_not_raised(events, clock) -> None:
+    def broken():
+        raise RuntimeError("no DDS participant")
+
+    led = HeadLed(lambda: Mode.IDLE, broken, parse_looks(DEFAULT_LOOKS), events, clock=clock)
+    for _ in range(3):
+        led.tick()
+    assert events.counts()["head_led_failures"] == 3
+
+
 def test_colour_is_refreshed_in_case_someone_else_changed_it(events, clock) -> None:
     rig = Rig(events, clock)
     rig.mode = Mode.IDLE
