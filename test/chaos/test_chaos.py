@@ -77,6 +77,7 @@ def _start_node(k: int):
 
 
 def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
+    os.environ["PYTHONFAULTHANDLER"] = "1"  # a node that crashes prints every thread's Python stack
     record_path = tmp_path / "chaos_record.jsonl"
     bridge = start_sim_bridge(sdk_channels, speed=1.0, extra_args=("--record", str(record_path)))
     ros = RosClient("chaos_client")
@@ -147,6 +148,7 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float]) 
         wait_until(lambda: _damped(sim.get()), SETTLE_S, 0.1)
         time.sleep(0.3)
         end_state = sim.get()
+        alive = node.alive()
         events = stack.record.after_last_reset()
         first_damp = next((e["t"] for e in events if e["k"] == "req" and e["t"] >= claims.t_estop
                            and e.get("api") == 7101 and e.get("p") == '{"data": 1}'), None)
@@ -155,7 +157,9 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float]) 
         connected = bool(before) and before[-1].mode != Mode.UNINITIALIZED
         if first_damp is not None and connected:  # from UNINITIALIZED the e-stop first connects (~1.5 s)
             latencies.append(first_damp - claims.t_estop)
-        return judge(events, claims, end_state)
+        crashed = [] if alive else [f"the node died during the scenario (exit {node.proc.returncode}): "
+                                    f"{node.output()[-1500:]}"]
+        return crashed + judge(events, claims, end_state)
     finally:
         t_stop = time.monotonic()
         code = node.stop()  # before the next reset: its supervision would damp the fresh robot
