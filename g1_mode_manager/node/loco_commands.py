@@ -10,6 +10,7 @@ from typing import Protocol
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
+from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 
 #: LocoCommand code of a command refused here, before anything was sent to the robot.
@@ -35,6 +36,14 @@ def _continuous_gait(port: RobotPort, value: int) -> None:
     port.set_balance_mode(1 if value else 0)
 
 
+def _arm_task(task_id: int) -> Callable[[RobotPort, int], None]:
+    return lambda port, _value: port.set_arm_task(task_id)
+
+
+def _shake_hand(port: RobotPort, value: int) -> None:
+    port.set_arm_task(api.ARM_TASK_SHAKE_HAND_OUT if value == 0 else api.ARM_TASK_SHAKE_HAND_BACK)
+
+
 COMMANDS: dict[str, Callable[[RobotPort, int], None]] = {
     "damp": _fsm(FsmId.DAMP),
     "zero_torque": _fsm(FsmId.ZERO_TORQUE),
@@ -45,9 +54,14 @@ COMMANDS: dict[str, Callable[[RobotPort, int], None]] = {
     "balance_stand": lambda port, _value: port.set_balance_mode(0),
     "continuous_gait": _continuous_gait,
     "speed_mode": _speed_mode,
+    "high_stand": lambda port, _value: port.high_stand(),
+    "low_stand": lambda port, _value: port.low_stand(),
+    "wave_hand": _arm_task(api.ARM_TASK_WAVE),
+    "wave_and_turn": _arm_task(api.ARM_TASK_WAVE_AND_TURN),
+    "shake_hand": _shake_hand,  # value 0: hold the hand out, 1: withdraw it
 }
 
-_VALUE_RANGES = {"continuous_gait": range(0, 2), "speed_mode": range(0, 4)}
+_VALUE_RANGES = {"continuous_gait": range(0, 2), "speed_mode": range(0, 4), "shake_hand": range(0, 2)}
 
 
 class LocoGate(Protocol):

@@ -17,7 +17,7 @@ LOCO_SET_BALANCE_MODE: Final = 7102  # {"data": 0|1}
 LOCO_SET_SWING_HEIGHT: Final = 7103  # {"data": metres}
 LOCO_SET_STAND_HEIGHT: Final = 7104  # {"data": metres}
 LOCO_SET_VELOCITY: Final = 7105  # {"velocity": [vx m/s, vy m/s, wz rad/s], "duration": s}
-LOCO_SET_ARM_TASK: Final = 7106
+LOCO_SET_ARM_TASK: Final = 7106  # {"data": task}: ARM_TASK_*
 LOCO_SET_SPEED_MODE: Final = 7107  # {"data": 0..3}
 LOCO_SWITCH_TO_USER_CTRL: Final = 7110
 LOCO_SWITCH_TO_INTERNAL_CTRL: Final = 7111
@@ -42,6 +42,15 @@ LOCO_SET_APIS: Final = (
     LOCO_SWITCH_TO_INTERNAL_CTRL,
 )
 
+# SetArmTask's tasks (the SDK's WaveHand(turn) and ShakeHand(stage)).
+ARM_TASK_WAVE: Final = 0
+ARM_TASK_WAVE_AND_TURN: Final = 1
+ARM_TASK_SHAKE_HAND_OUT: Final = 2  # first stage: the hand held out ...
+ARM_TASK_SHAKE_HAND_BACK: Final = 3  # ... second stage: withdrawn
+#: SetStandHeight's HighStand / LowStand values (a uint32 all ones: "the highest"; 0: "the lowest").
+STAND_HEIGHT_HIGH: Final = 0xFFFFFFFF
+STAND_HEIGHT_LOW: Final = 0
+
 #: Move's duration in s: one command lasts this long unless renewed ...
 MOVE_DURATION_S: Final = 1.0
 #: ... or, for a continuous move, 10 days.
@@ -59,6 +68,14 @@ MS_GET_SILENT: Final = 1005  # -> {"silent": bool}
 
 #: The high-level service this package selects.
 HIGH_LEVEL_SERVICE_NAME: Final = "ai"
+
+# --- arm action service (the robot's canned upper-body actions) -----------------------------------
+ARM_SERVICE: Final = "arm"
+ARM_API_VERSION: Final = "1.0.0.14"
+ARM_EXECUTE_ACTION: Final = 7106  # {"data": action_id}
+ARM_GET_ACTION_LIST: Final = 7107
+ARM_APIS: Final = (ARM_EXECUTE_ACTION, ARM_GET_ACTION_LIST)
+ARM_ACTION_RELEASE: Final = 99  # "release arm": ends any action
 
 # --- voice service (speaker, microphone, head RGB LED) -------------------------------------------
 VOICE_SERVICE: Final = "voice"

@@ -68,6 +68,10 @@ class LocoClient(RpcClient):
         parameter = {"velocity": [float(vx), float(vy), float(wz)], "duration": float(duration)}
         self.call("SetVelocity", api.LOCO_SET_VELOCITY, parameter, timeout_s=timeout_s)
 
+    def set_arm_task(self, task_id: int, *, timeout_s: float | None = None) -> None:
+        """SetArmTask: a built-in arm motion (``api.ARM_TASK_*``: wave, wave and turn, shake hand stages)."""
+        self.call("SetArmTask", api.LOCO_SET_ARM_TASK, {"data": int(task_id)}, timeout_s=timeout_s)
+
     def set_speed_mode(self, mode: int, *, timeout_s: float | None = None) -> None:
         if int(mode) not in SPEED_MODE_MAX_SPEED:
             raise ValueError(f"SetSpeedMode: mode must be one of {sorted(SPEED_MODE_MAX_SPEED)}, got {mode!r}")
@@ -113,3 +117,22 @@ class LocoClient(RpcClient):
 
     def stop_move(self, *, timeout_s: float | None = None) -> None:
         self.set_velocity(0.0, 0.0, 0.0, timeout_s=timeout_s)
+
+    def high_stand(self, *, timeout_s: float | None = None) -> None:
+        """SetStandHeight(0xFFFFFFFF), sent as the integer the SDK sends: the highest stand."""
+        self.call("SetStandHeight", api.LOCO_SET_STAND_HEIGHT, {"data": api.STAND_HEIGHT_HIGH}, timeout_s=timeout_s)
+
+    def low_stand(self, *, timeout_s: float | None = None) -> None:
+        """SetStandHeight(0): the lowest stand."""
+        self.call("SetStandHeight", api.LOCO_SET_STAND_HEIGHT, {"data": api.STAND_HEIGHT_LOW}, timeout_s=timeout_s)
+
+    def wave_hand(self, turn: bool = False, *, timeout_s: float | None = None) -> None:
+        self.set_arm_task(api.ARM_TASK_WAVE_AND_TURN if turn else api.ARM_TASK_WAVE, timeout_s=timeout_s)
+
+    def shake_hand(self, stage: int, *, timeout_s: float | None = None) -> None:
+        """Stage 0 holds the hand out (task 2), stage 1 withdraws it (task 3); the SDK's toggling form
+        (no stage) keeps state in the client, which a restart would lose, so the stage is explicit."""
+        if stage not in (0, 1):
+            raise ValueError(f"ShakeHand: stage must be 0 or 1, got {stage!r}")
+        task = api.ARM_TASK_SHAKE_HAND_OUT if stage == 0 else api.ARM_TASK_SHAKE_HAND_BACK
+        self.set_arm_task(task, timeout_s=timeout_s)

@@ -162,6 +162,15 @@ class UnitreeRobot:
     def set_speed_mode(self, mode: int) -> None:
         self.loco.set_speed_mode(mode)
 
+    def high_stand(self) -> None:
+        self.loco.high_stand()
+
+    def low_stand(self) -> None:
+        self.loco.low_stand()
+
+    def set_arm_task(self, task_id: int) -> None:
+        self.loco.set_arm_task(task_id)
+
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self.loco.set_velocity(vx, vy, wz, duration_s)
 

@@ -62,6 +62,15 @@ class FakeRobotPort(FakeRobot):
     def set_speed_mode(self, mode: int) -> None:
         self._record("set_speed_mode", mode)
 
+    def high_stand(self) -> None:
+        self._record("high_stand")
+
+    def low_stand(self) -> None:
+        self._record("low_stand")
+
+    def set_arm_task(self, task_id: int) -> None:
+        self._record("set_arm_task", task_id)
+
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self._record("set_velocity", vx, vy, wz, duration_s)
 

@@ -35,6 +35,9 @@ class StandIn:
     def sport_state(self) -> tuple[int, int]:
         return (self.fsm_id, 0)
 
+    def arm_task(self) -> tuple[int, float]:
+        return (0, 0.0)
+
     @property
     def standing_balanced(self) -> bool:
         return self.fsm_id in (4, 500)
@@ -187,7 +190,7 @@ def test_sport_answers_3203_while_released() -> None:
 
 
 def test_unknown_api_is_not_implemented() -> None:
-    assert _server(StandIn()).handle_for_test(api.LOCO_SET_ARM_TASK, "{}")[0] == api.ERR_SERVER_API_NOT_IMPL
+    assert _server(StandIn()).handle_for_test(api.LOCO_GET_PHASE, "{}")[0] == api.ERR_SERVER_API_NOT_IMPL
 
 
 def test_damp_fails_and_error_faults() -> None:

@@ -142,6 +142,7 @@ class Bridge:
         from g1_sim.bridge.rpc_services import (
             RequestCounter,
             SimServer,
+            arm_action_handlers,
             motion_switcher_handlers,
             sport_handlers,
         )
@@ -170,6 +171,8 @@ class Bridge:
                       faults=self.faults, counter=self.requests, **hooks),
             SimServer(api.MOTION_SWITCHER_SERVICE, api.MOTION_SWITCHER_API_VERSION,
                       motion_switcher_handlers(self.robot), faults=self.faults, counter=self.requests, **hooks),
+            # arm actions: counted, not faulted or recorded (its ids overlap the sport service's 7106/7107)
+            SimServer(api.ARM_SERVICE, api.ARM_API_VERSION, arm_action_handlers(self.robot), counter=self.requests),
             SimServer(STATUS_SERVICE, STATUS_API_VERSION, status_handlers(self.status, self.reset)),
         ]  # fmt: skip
         # voice (head LED, TTS): counted, but neither faulted nor recorded: its api ids overlap the motion
@@ -237,7 +240,7 @@ class Bridge:
             "real_time_factor": self.loop.rate.real_time_factor,
             "mean_real_time_factor": self.loop.rate.mean_real_time_factor,
             "sport": {"fsm_id": fsm_id, "fsm_mode": fsm_mode, "active": robot.sport_active(), "mode": name,
-                      "form": form},
+                      "form": form, "task": list(robot.arm_task())},
             "base": {"position": b.position.tolist(), "quaternion": b.quaternion.tolist(),
                      "linear_velocity": b.linear_velocity.tolist(),
                      "angular_velocity": b.angular_velocity.tolist()},

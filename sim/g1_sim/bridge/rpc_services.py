@@ -1,4 +1,4 @@
-"""The G1's RPC services (sport, motion_switcher) served with the SDK's own Server class.
+"""The G1's RPC services (sport, motion_switcher, arm) served with the SDK's own Server class.
 
 Handlers are pure functions of a robot object (``SimG1`` or a stand-in in unit tests) and the JSON
 parameter. ``SimServer`` is the SDK's ``Server`` with two additions the robot does not have: every
@@ -46,6 +46,7 @@ class SportRobot(Protocol):
     def get_balance_mode(self) -> tuple[int, int]: ...
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> int: ...
     def set_speed_mode(self, mode: int) -> int: ...
+    def set_arm_task(self, task_id: int) -> int: ...
     def set_stand_height(self, height: float) -> int: ...
     def get_stand_height(self) -> tuple[int, float]: ...
     def set_swing_height(self, height: float) -> int: ...
@@ -103,7 +104,7 @@ def _guarded(handler: Callable[[dict[str, Any]], Reply]) -> Handler:
 
 
 def sport_handlers(robot: SportRobot, faults: Faults) -> dict[int, Handler]:
-    """Handlers of the sport service by api id (GetPhase, SetArmTask, user/internal ctrl: 3203)."""
+    """Handlers of the sport service by api id (GetPhase, user/internal ctrl: 3203)."""
 
     def set_fsm_id(p: dict[str, Any]) -> Reply:
         fsm_id = _integer(p, "data")
@@ -133,6 +134,7 @@ def sport_handlers(robot: SportRobot, faults: Faults) -> dict[int, Handler]:
         api.LOCO_SET_STAND_HEIGHT: lambda p: (robot.set_stand_height(_number(p, "data")), ""),
         api.LOCO_SET_VELOCITY: set_velocity,
         api.LOCO_SET_SPEED_MODE: lambda p: (robot.set_speed_mode(_integer(p, "data")), ""),
+        api.LOCO_SET_ARM_TASK: lambda p: (robot.set_arm_task(_integer(p, "data")), ""),
     }
 
     def only_while_active(handler: Handler) -> Handler:
@@ -176,6 +178,28 @@ def motion_switcher_handlers(robot: SportRobot) -> dict[int, Handler]:
         api.MS_RELEASE_MODE: lambda p: (robot.release_mode(), ""),
         api.MS_SET_SILENT: set_silent,
         api.MS_GET_SILENT: get_silent,
+    }
+    return {api_id: _guarded(h) for api_id, h in table.items()}
+
+
+class ArmRobot(Protocol):
+    """What the arm action service needs from the simulated robot."""
+
+    def execute_arm_action(self, action_id: int) -> int: ...
+    def arm_action_list(self) -> dict[int, str]: ...
+
+
+def arm_action_handlers(robot: ArmRobot) -> dict[int, Handler]:
+    """Handlers of the ``arm`` service: ExecuteAction {"data": id}; GetActionList answers
+    ``[{"id", "name"}, ...]`` (the robot's reply format is not documented)."""
+
+    def action_list(p: dict[str, Any]) -> Reply:
+        actions = [{"id": i, "name": n} for i, n in sorted(robot.arm_action_list().items())]
+        return (api.OK, json.dumps(actions))
+
+    table: dict[int, Callable[[dict[str, Any]], Reply]] = {
+        api.ARM_EXECUTE_ACTION: lambda p: (robot.execute_arm_action(_integer(p, "data")), ""),
+        api.ARM_GET_ACTION_LIST: action_list,
     }
     return {api_id: _guarded(h) for api_id, h in table.items()}
 

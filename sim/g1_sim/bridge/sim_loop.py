@@ -28,6 +28,7 @@ class SteppableRobot(Protocol):
     def step(self, n: int = 1) -> None: ...
     def lowstate(self) -> Any: ...
     def sport_state(self) -> tuple[int, int]: ...
+    def arm_task(self) -> tuple[int, float]: ...
     def base_pose(self) -> Any: ...
 
 
@@ -87,7 +88,7 @@ class SimLoop:
                 s = robot.lowstate()
                 pub.publish_lowstate(s)
             if k % self._sport_every == 0 and not paused:
-                pub.publish_sportmodestate(*robot.sport_state())
+                pub.publish_sportmodestate(*robot.sport_state(), *robot.arm_task())
             if node is not None and k % self._ros_every == 0 and node.publish_ros:
                 self._publish_ros(t, robot.lowstate() if s is None else s)
             self.rate.update(t)

@@ -56,9 +56,12 @@ class StatePublishers:
         ok = self._lowstate.Write(msg)
         self._bump("lowstate" if ok else "lowstate_write_errors")
 
-    def publish_sportmodestate(self, fsm_id: int, fsm_mode: int) -> None:
+    def publish_sportmodestate(self, fsm_id: int, fsm_mode: int, task_id: int = 0, task_time: float = 0.0) -> None:
+        """``task_id``/``task_time``: the built-in arm motion playing and its seconds so far (0, 0.0: none)."""
         self._sport_msg.fsm_id = fsm_id
         self._sport_msg.fsm_mode = fsm_mode
+        self._sport_msg.task_id = task_id
+        self._sport_msg.task_time = task_time
         ok = self._sport.Write(self._sport_msg)
         self._bump("sportmodestate" if ok else "sportmodestate_write_errors")
 

@@ -35,9 +35,17 @@ from g1_mode_manager.protocol.fsm import (
     FsmId,
     FsmMode,
 )
-from g1_mode_manager.protocol.motors import MODE_MACHINE_G1_29DOF, NUM_JOINTS
+from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, MODE_MACHINE_G1_29DOF, NUM_JOINTS
 from g1_sim.assets import assets_dir, policy_onnx
 from g1_sim.firmware import rules
+from g1_sim.firmware.arm_tasks import (
+    ARM_ACTION_NAMES,
+    ARM_ACTIONS,
+    RELEASE_ARM,
+    RELEASE_MOTION,
+    SPORT_TASKS,
+    ArmTaskPlayer,
+)
 from g1_sim.firmware.state import BasePose, LowStateSnapshot, quat_to_rpy
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
@@ -118,6 +126,7 @@ class SimG1:
         self._damp = DampController()
         self._lowlevel = LowLevelController()
         self._arm = ArmSdkBlend()
+        self._tasks = ArmTaskPlayer()  # SetArmTask and the arm service's actions
         self._squat = PostureHarness(self._g1, SQUAT_POSE, float(standing_qpos(self._g1.model, SQUAT_POSE)[2]))
         self._sit = PostureHarness(self._g1, SIT_POSE, float(standing_qpos(self._g1.model, SIT_POSE)[2]))
         self._stance = StanceController(self._g1)
@@ -184,7 +193,8 @@ class SimG1:
                 if self._steps % self._decimation == 0:
                     self._tick()
                 self._loco.arm_weight = self._arm.weight
-                self._stance.balancing = self._arm.weight > 0.0
+                self._stance.balancing = self._arm.weight > 0.0 or self._tasks.active
+                self._stance.upper = self._tasks.command
                 tau = self._ctrl.torques(self._s)
                 if self._arm.weight > 0.0 and self._balanced():
                     tau = self._arm.blend(tau, self._s)
@@ -212,6 +222,7 @@ class SimG1:
     def _tick(self) -> None:
         """50 Hz firmware work: velocity lease, fsm_mode, fall detector."""
         t = self.time
+        self._tasks.update(t)
         if self._velocity_until and t >= self._velocity_until:
             self._velocity[:] = 0.0
             self._velocity_until = 0.0
@@ -256,6 +267,7 @@ class SimG1:
         self._velocity_until = 0.0
         if fsm not in STANDING_FSM_IDS:
             self._arm.weight = 0.0
+        self._tasks.stop()
         if fsm == FsmId.ZERO_TORQUE:
             self._switch(self._zero)
         elif fsm == FsmId.DAMP:
@@ -365,6 +377,44 @@ class SimG1:
         with self._lock:
             return (OK, self._swing_height) if self._service else (ERR_SERVER_API_NOT_IMPL, 0.0)
 
+    # --- arm tasks (sport SetArmTask) and the arm service ----------------------------------------------
+
+    def _arms_free(self) -> bool:
+        """Built-in arm motions play only in lock stand (the stance holds them), standing still."""
+        return self._ctrl is self._stance and self._fsm_mode == FsmMode.STATIC
+
+    def _play(self, call: str, motion_id: int, table: dict) -> int:
+        if not self._service:
+            return self._log(call, motion_id, ERR_SERVER_API_NOT_IMPL)
+        if motion_id not in table:
+            return self._log(call, motion_id, ERR_SERVER_API_PARAMETER)
+        if not self._arms_free():
+            return self._log(call, motion_id, ERR_REFUSED_IN_STATE)
+        self._tasks.start(motion_id, table[motion_id], self.time, self._s.q[list(ARM_SDK_JOINTS)])
+        return self._log(call, motion_id, OK)
+
+    def set_arm_task(self, task_id: int) -> int:
+        """sport 7106: 0 wave, 1 wave and turn, 2/3 shake hand stages (``SPORT_TASKS``)."""
+        with self._lock:
+            return self._play("SetArmTask", int(task_id), SPORT_TASKS)
+
+    def execute_arm_action(self, action_id: int) -> int:
+        """arm 7106 ExecuteAction: one of ``ARM_ACTIONS``; 99 (release arm) ends any motion."""
+        with self._lock:
+            if action_id == RELEASE_ARM and self._service:
+                if self._tasks.active:  # back to the pose before the motion, then ramp out
+                    self._tasks.start(RELEASE_ARM, RELEASE_MOTION, self.time, self._s.q[list(ARM_SDK_JOINTS)])
+                return self._log("ExecuteAction", action_id, OK)
+            return self._play("ExecuteAction", int(action_id), ARM_ACTIONS)
+
+    def arm_action_list(self) -> dict[int, str]:
+        return dict(ARM_ACTION_NAMES)
+
+    def arm_task(self) -> tuple[int, float]:
+        """(task_id, task_time) for rt/sportmodestate (see ArmTaskPlayer.report)."""
+        with self._lock:
+            return self._tasks.report(self.time)
+
     # --- motion switcher -------------------------------------------------------------------------
 
     def check_mode(self) -> tuple[str, str]:
@@ -396,6 +446,7 @@ class SimG1:
                 self._fsm_mode = int(FsmMode.STATIC)
                 self._velocity[:] = 0.0
                 self._arm.weight = 0.0
+                self._tasks.stop()
                 self._lowlevel.clear()
                 self._switch(self._lowlevel)
             return self._log("ReleaseMode", "", OK)

@@ -185,6 +185,8 @@ class StanceController:
         self.lean_limit = lean_limit
         self.lean = np.zeros(2)  # (forward, sideways) lean of the legs about the ankles, rad
         self.balancing = False
+        #: A built-in arm motion (arm tasks): targets of motors 12..28 and how much they replace the hold's.
+        self.upper: tuple[np.ndarray, float] | None = None
         self._feet = [g1.model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
         self._pelvis = g1.pelvis_body
 
@@ -221,6 +223,9 @@ class StanceController:
         q_des[[0, 6]] -= self.lean[0]
         q_des[[5, 11]] += self.lean[1]  # ankle roll +: the pelvis moves left
         q_des[[1, 7]] -= self.lean[1]
+        if self.upper is not None:
+            targets, weight = self.upper
+            q_des[ARM0:] += weight * (targets - q_des[ARM0:])
         self._i_term = np.clip(self._i_term + self._ki * (q_des - s.q) * TIMESTEP_S, -self._i_limit, self._i_limit)
         return pd(q_des, self._zeros, self._i_term, self.kp, self.kd, s.q, s.dq)
 
