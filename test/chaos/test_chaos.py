@@ -101,6 +101,8 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
                 if bad:
                     failures.append(f"seed {seed}: " + "; ".join(bad))
                     print(f"chaos: VIOLATION seed {seed}: {bad}", flush=True)
+                if (i + 1) % 50 == 0:
+                    print(f"chaos: {i + 1} scenarios so far, {len(failures)} violations", flush=True)
         finally:
             if not upcoming.cancel():
                 with contextlib.suppress(Exception):
@@ -166,6 +168,8 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], 
         t_stop = time.monotonic()
         code = node.stop()  # before the next reset: its supervision would damp the fresh robot
         stop_s = time.monotonic() - t_stop
+        if os.environ.get("G1_CHAOS_VERBOSE"):
+            print(node.output())
         if code not in (0, None) or stop_s > 5.0:
             unclean.append(f"seed {seed}: exit {code} after {stop_s:.1f} s")
             print(f"chaos seed {seed}: node exited with {code} after {stop_s:.1f} s:\n{node.output()[-3000:]}")
