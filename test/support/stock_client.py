@@ -7,7 +7,8 @@ Cyclone (11: multicast on lo; 0.10: unicast), and uses only the SDK's classes: `
 ``MotionSwitcherClient``, ``ChannelPublisher``/``ChannelSubscriber`` and ``CRC``. With ``--type-fix`` (needed
 on cyclonedds 11 to match a robot) it describes uint8/int8 as Cyclone 0.10 does before the first topic.
 
-Steps, in the order given: ``walk`` (Damp, StandUp, Start, Move 0.5 m/s for 3 s, StopMove), ``arm``
+Steps, in the order given: ``stand`` (Damp, StandUp until static), ``walk`` (Start, Move 0.5 m/s for
+2.5 s, StopMove), ``arm``
 (rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``release`` (ReleaseMode), ``damp``
 (SelectMode("ai") then Damp). Each prints one JSON line ``{"step", "t", ...codes}``; the caller judges
 what the robot did from the robot's side. Exit 0 once every step ran, 1 if the server never answered.
@@ -53,17 +54,20 @@ def wait_static(loco: Any, budget_s: float = 15.0) -> int:
     return mode
 
 
-def walk(loco: Any) -> None:
+def stand(loco: Any) -> None:
     loco.Damp()
     time.sleep(0.3)
-    stand = loco.SetFsmId(4)
-    static = wait_static(loco)
+    code = loco.SetFsmId(4)
+    emit("stand", code=code, static=wait_static(loco))
+
+
+def walk(loco: Any) -> None:
     loco.Start()
     loco.Move(0.5, 0.0, 0.0, True)
-    time.sleep(3.0)
+    time.sleep(2.5)
     loco.StopMove()
     time.sleep(0.5)
-    emit("walk", stand_code=stand, static_after_stand=static)
+    emit("walk")
 
 
 def arm(publisher: Any, lowstate: Any) -> None:
@@ -122,7 +126,9 @@ def main(argv: list[str]) -> int:
     if codes != (0, 0):
         return 1
     for step in steps:
-        if step == "walk":
+        if step == "stand":
+            stand(loco)
+        elif step == "walk":
             walk(loco)
         elif step == "arm":
             arm(publisher, lowstate)
