@@ -26,9 +26,12 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "test"))  # test/support: process management, the sim's record
 
-os.environ.setdefault("ROS_DOMAIN_ID", str(90 + os.getpid() % 10))
+from support.domains import allocate_run_domains  # noqa: E402
+
+# Domains held by file locks like the tests' (a bench beside a test run must not share its robot).
+_ROS_DOMAIN, SDK_DOMAIN = allocate_run_domains()
+os.environ["ROS_DOMAIN_ID"] = str(_ROS_DOMAIN)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-SDK_DOMAIN = 200 + os.getpid() % 20
 
 from g1_mode_manager.protocol import api_ids  # noqa: E402
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES  # noqa: E402
