@@ -18,7 +18,9 @@ mkdir -p "$home"
 ln -s /usr/include "$home/include"
 ln -s "/usr/lib/$multiarch" "$home/lib"
 ln -s /usr/bin "$home/bin"
-CYCLONEDDS_HOME="$home" "$staging/bin/python" -m pip install -q --no-cache-dir \
+# The sdist's build backend from pins too (no build isolation, which would fetch the newest setuptools).
+"$staging/bin/python" -m pip install -q setuptools==79.0.1 wheel==0.45.1
+CYCLONEDDS_HOME="$home" "$staging/bin/python" -m pip install -q --no-cache-dir --no-build-isolation \
   -r "$top/requirements-cyclone010.txt" -c "$top/requirements-cyclone010.txt"
 "$staging/bin/python" -m pip install -q --no-deps -r "$top/requirements-nodeps.txt"
 mv "$staging" "$venv"
