@@ -28,9 +28,11 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("set-mode", help="request a mode: idle, high_level, low_level, emergency")
     p.add_argument("name")
     sub.add_parser("estop", help="emergency stop (Damp); the mode stays EMERGENCY")
-    p = sub.add_parser("loco", help="built-in controller command: damp, stand_up, start, sit, squat, ...")
+    p = sub.add_parser("loco", help="built-in controller command: damp, stand_up, start, sit, squat, high_stand, "
+                                    "low_stand, wave_hand, wave_and_turn, shake_hand 0|1, ...")
     p.add_argument("command")
-    p.add_argument("value", nargs="?", type=int, default=0)
+    p.add_argument("value", nargs="?", type=int, default=0,
+                   help="speed_mode 0..3, continuous_gait 0|1, shake_hand 0 (hold out) | 1 (withdraw)")
     sub.add_parser("drive", help="keyboard teleop on <namespace of --manager>/cmd_vel")
     args = parser.parse_args(argv)
 
