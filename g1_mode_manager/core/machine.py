@@ -43,6 +43,9 @@ from g1_mode_manager.protocol.fsm import FsmId
 __all__ = ["EstopTiming", "MachineStatus", "ModeMachine", "Outcome", "Result", "TransitionRecord"]
 
 _ZERO_TORQUE_NOTE = "robot is in zero torque; send stand_up/damp"
+#: rt/sportmodestate read within this long after the robot was verified damped is no evidence against it
+#: (the newest sample may predate the Damp: 50 Hz on the robot, read at the supervisor's 10 Hz), s.
+STATE_SETTLE_S = 0.25
 LeaveListener = Callable[[Mode, Mode], None]
 AlarmListener = Callable[[str], None]
 
@@ -117,6 +120,7 @@ class ModeMachine:
         self._late_landing = False  # a robot-changing call returned after an e-stop began
         self._reasserts = 0
         self._next_verify = 0.0
+        self._verified_at = float("-inf")
         self._next_belief = 0.0
         self._history: deque[TransitionRecord] = deque(maxlen=history_size)
 
@@ -380,7 +384,10 @@ class ModeMachine:
             verify_due = now >= self._next_verify
             if verify_due:
                 self._next_verify = now + self._timing.verify_period_s
-        fresh = fsm_id is not None and state_age_s is not None and state_age_s <= self._timing.state_fresh_s
+            # a sample read just after a verification may have been sent before the Damp took effect
+            settled = now - self._verified_at > STATE_SETTLE_S
+        fresh = (fsm_id is not None and state_age_s is not None and state_age_s <= self._timing.state_fresh_s
+                 and settled)
         why = ""
         if late:
             why = "a robot call landed after the e-stop began"
@@ -593,7 +600,8 @@ class ModeMachine:
                 with self._state_lock:
                     self._damp_confirmed = True
                     self._late_landing = False
-                    self._next_verify = self._clock() + timing.verify_period_s
+                    self._verified_at = self._clock()
+                    self._next_verify = self._verified_at + timing.verify_period_s
                     self._version += 1
                 self._notify()
                 return _EstopRun(covered, None, tuple(dict.fromkeys(notes)))
