@@ -15,6 +15,7 @@ from sensor_msgs.msg import JointState
 from g1_mode_manager.node.mode_manager import MODE_QOS
 from g1_mode_manager.protocol import api_ids
 from support.mode_manager import wait_until
+from support.sim_record import requests, velocity_of
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
@@ -44,6 +45,11 @@ def test_walks_on_cmd_vel_and_watchdog_stops_it(stack_factory) -> None:
     assert walked >= 1.2 and z1 > 0.6
     assert stopped and stop_after <= 1.5
     assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) > 50
+    # the watchdog's own StopMove, on the robot's record (the robot would also stop when its 1 s Move lease
+    # ran out: that alone proves nothing about the watchdog)
+    stops = [e["t"] - last_cmd for e in requests(stack.record.events(since=last_cmd), api_ids.LOCO_SET_VELOCITY)
+             if velocity_of(e) == [0.0, 0.0, 0.0]]
+    assert stops and stops[0] <= 0.5 + 0.3, f"no StopMove within the watchdog timeout: {stops}"
 
 
 def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(stack_factory) -> None:
