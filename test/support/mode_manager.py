@@ -10,7 +10,6 @@ import rclpy
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 
-from g1_mode_manager.cli.client import call_service
 from support.processes import ManagedProcess, python_module
 
 
@@ -37,6 +36,8 @@ class RosClient:
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         self.node: Node = rclpy.create_node(name, context=self.context)
+        self._clients: dict = {}
+        self._clients_lock = threading.Lock()
         self._executor = MultiThreadedExecutor(num_threads=2, context=self.context)
         self._executor.add_node(self.node)
         # A waiting executor does not see entities created later until something wakes it: a no-op
@@ -45,8 +46,22 @@ class RosClient:
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
 
-    def call(self, srv_type, name: str, request, timeout_s: float = 30.0):
-        return call_service(self.node, srv_type, name, request, timeout_s, discovery_timeout_s=15.0)
+    def call(self, srv_type, name: str, request, timeout_s: float = 30.0, discovery_timeout_s: float = 15.0):
+        """Call a service through a client made once per (type, name) and kept: destroying a client while
+        this client's executor waits on it kills the executor's thread (rclpy InvalidHandle), and every
+        later call then times out (seen with 8 threads calling at once)."""
+        with self._clients_lock:
+            client = self._clients.get((srv_type, name))
+            if client is None:
+                client = self._clients[(srv_type, name)] = self.node.create_client(srv_type, name)
+        if not client.wait_for_service(timeout_sec=discovery_timeout_s):
+            raise TimeoutError(f"service {name} not available: is the mode manager running?")
+        future = client.call_async(request)
+        done = threading.Event()
+        future.add_done_callback(lambda _f: done.set())
+        if not done.wait(timeout_s):
+            raise TimeoutError(f"{name} did not answer within {timeout_s} s")
+        return future.result()
 
     def wait_node_answers(self, node_name: str = "/g1_mode_manager", timeout_s: float = 20.0) -> None:
         """Call the node's get_parameters service until it answers: once a request and its response
@@ -57,8 +72,8 @@ class RosClient:
         deadline = time.monotonic() + timeout_s
         while True:
             try:
-                call_service(self.node, GetParameters, f"{node_name}/get_parameters",
-                             GetParameters.Request(names=["dds_domain"]), timeout_s=2.0, discovery_timeout_s=5.0)
+                self.call(GetParameters, f"{node_name}/get_parameters", GetParameters.Request(names=["dds_domain"]),
+                          timeout_s=2.0, discovery_timeout_s=5.0)
                 return
             except TimeoutError:
                 if time.monotonic() > deadline:
