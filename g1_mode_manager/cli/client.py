@@ -26,16 +26,21 @@ def call_service(node: Node, srv_type, name: str, request, timeout_s: float, dis
     """Call a service from a node that another thread spins; TimeoutError if absent or silent."""
     client = node.create_client(srv_type, name)
     try:
-        if not client.wait_for_service(timeout_sec=discovery_timeout_s):
-            raise TimeoutError(f"service {name} not available: is the mode manager running?")
-        future = client.call_async(request)
-        done = threading.Event()
-        future.add_done_callback(lambda _f: done.set())
-        if not done.wait(timeout_s):
-            raise TimeoutError(f"{name} did not answer within {timeout_s} s")
-        return future.result()
+        return call_client(client, name, request, timeout_s, discovery_timeout_s)
     finally:
         node.destroy_client(client)
+
+
+def call_client(client, name: str, request, timeout_s: float, discovery_timeout_s: float = 10.0):
+    """Call through an existing client (spun by another thread); TimeoutError if absent or silent."""
+    if not client.wait_for_service(timeout_sec=discovery_timeout_s):
+        raise TimeoutError(f"service {name} not available: is the mode manager running?")
+    future = client.call_async(request)
+    done = threading.Event()
+    future.add_done_callback(lambda _f: done.set())
+    if not done.wait(timeout_s):
+        raise TimeoutError(f"{name} did not answer within {timeout_s} s")
+    return future.result()
 
 
 def cmd_vel_topic(manager: str) -> str:

@@ -10,6 +10,7 @@ import rclpy
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 
+from g1_mode_manager.cli.client import call_client
 from support.processes import ManagedProcess, python_module
 
 
@@ -54,14 +55,7 @@ class RosClient:
             client = self._clients.get((srv_type, name))
             if client is None:
                 client = self._clients[(srv_type, name)] = self.node.create_client(srv_type, name)
-        if not client.wait_for_service(timeout_sec=discovery_timeout_s):
-            raise TimeoutError(f"service {name} not available: is the mode manager running?")
-        future = client.call_async(request)
-        done = threading.Event()
-        future.add_done_callback(lambda _f: done.set())
-        if not done.wait(timeout_s):
-            raise TimeoutError(f"{name} did not answer within {timeout_s} s")
-        return future.result()
+        return call_client(client, name, request, timeout_s, discovery_timeout_s)
 
     def wait_node_answers(self, node_name: str = "/g1_mode_manager", timeout_s: float = 20.0) -> None:
         """Call the node's get_parameters service until it answers: once a request and its response
