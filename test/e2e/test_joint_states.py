@@ -34,6 +34,10 @@ class Inbox:
             return [m for t, m in self.items if t >= t0]
 
 
+def _seconds(stamp) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
 @pytest.fixture
 def ros():
     client = RosClient("joint_state_probe")
@@ -59,9 +63,13 @@ def test_joint_states_and_imu_at_the_set_rate_match_the_sim(sdk_channels, ros) -
         assert wait_until(lambda: len(mine.since(0.0)) > 5, 10.0), "no joint_states from the node"
 
         t0 = time.monotonic()
-        time.sleep(4.0)
+        time.sleep(4.5)
         got = mine.since(t0)
-        rate = len(got) / 4.0
+        # The rate the node publishes at, from its stamps: receive times on a loaded 2-core machine bunch
+        # (a delayed batch counted in a 4 s receive window read 28.5 Hz once).
+        stamps = [_seconds(m.header.stamp) for m in got]
+        in_window = [s for s in stamps if stamps[0] <= s < stamps[0] + 4.0]
+        rate = len(in_window) / 4.0
         assert RATE_HZ * 0.8 <= rate <= RATE_HZ * 1.1, f"joint_states at {rate:.1f} Hz, set {RATE_HZ}"
         assert len(imu.since(t0)) >= len(got) - 2  # ~/imu published with every joint state
 
