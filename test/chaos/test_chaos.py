@@ -6,13 +6,15 @@ ReleaseMode / SetFsmId (0-3 s, so in-flight calls land in every order), failing 
 requests, loco commands and /cmd_vel from two clients, and an e-stop at a random instant through the
 service or the topic (reliable or best effort). See scenario.judge for the invariants.
 
-CI runs a fixed-seed batch (G1_CHAOS_N, default 40); `make chaos N=500 SEED=...` a longer one. The
-last line of a batch is `chaos: N scenarios, V violations`, with each failing seed above it.
+CI runs a fixed-seed batch (G1_CHAOS_N, default 40) in G1_CHAOS_PARTS parts (default 2: seeds split in
+consecutive ranges, each part with its own bridge on its own xdist worker); `make chaos N=500 SEED=...`
+runs one part. The last line of a part is `chaos: N scenarios, V violations`, each failing seed above it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import threading
 import time
@@ -37,6 +39,7 @@ pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 N = int(os.environ.get("G1_CHAOS_N", "40"))
 SEED = int(os.environ.get("G1_CHAOS_SEED", "7000"))
 SUMMARY = os.environ.get("G1_CHAOS_SUMMARY", "")
+PARTS = max(1, int(os.environ.get("G1_CHAOS_PARTS", "2")))
 #: Node call timeouts longer than the longest injected delay: every in-flight call's reply comes back.
 NODE_PARAMS = ("rpc_timeout_s:=4.0", "select_timeout_s:=10.0", "release_timeout_s:=8.0")
 SETTLE_S = 12.0  # after the faults clear, supervision must get the robot damped within this
@@ -76,7 +79,16 @@ def _start_node(k: int):
     return ns, node
 
 
-def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
+def _parts() -> list:
+    """(first seed, count) of each part, each part in an xdist group of its own (see test/conftest.py)."""
+    bounds = [N * k // PARTS for k in range(PARTS + 1)]
+    return [pytest.param(SEED + lo, hi - lo, id=f"seeds{SEED + lo}-{SEED + hi - 1}",
+                         marks=pytest.mark.xdist_group(f"chaos_part{k}"))
+            for k, (lo, hi) in enumerate(itertools.pairwise(bounds)) if hi > lo]  # fmt: skip
+
+
+@pytest.mark.parametrize(("first_seed", "count"), _parts())
+def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: int) -> None:
     os.environ["PYTHONFAULTHANDLER"] = "1"  # a node that crashes prints every thread's Python stack
     record_path = tmp_path / "chaos_record.jsonl"
     bridge = start_sim_bridge(sdk_channels, speed=1.0, extra_args=("--record", str(record_path)))
@@ -92,11 +104,11 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
     with ThreadPoolExecutor(1) as starter:
         upcoming = starter.submit(_start_node, 0)
         try:
-            for i in range(N):
+            for i in range(count):
                 ns, node = upcoming.result(60.0)
-                if i + 1 < N:
+                if i + 1 < count:
                     upcoming = starter.submit(_start_node, i + 1)
-                seed = SEED + i
+                seed = first_seed + i
                 bad = _scenario(seed, Stack(bridge, node, ros, sim, record, ns), endpoints[ns], latencies, unclean)
                 if bad:
                     failures.append(f"seed {seed}: " + "; ".join(bad))
@@ -114,9 +126,9 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path) -> None:
         median = latencies[len(latencies) // 2] * 1000
         print(f"chaos: e-stop request -> first Damp received by the robot (node connected): median {median:.2f} ms, "
               f"max {latencies[-1] * 1000:.2f} ms (n={len(latencies)})")
-    print(f"chaos: {(time.monotonic() - started) / max(N, 1):.1f} s per scenario; nodes that did not exit cleanly on "
+    print(f"chaos: {(time.monotonic() - started) / max(count, 1):.1f} s per scenario; nodes that did not exit cleanly on "
           f"SIGINT: {len(unclean)} {unclean}")
-    line = f"chaos: {N} scenarios, {len(failures)} violations"
+    line = f"chaos: {count} scenarios, {len(failures)} violations"
     print("\n".join([*failures, line]), flush=True)
     if SUMMARY:
         Path(SUMMARY).write_text("\n".join([*failures, line]) + "\n")
