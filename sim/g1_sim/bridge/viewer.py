@@ -3,6 +3,7 @@
 Only where a display exists (DISPLAY or WAYLAND_DISPLAY); elsewhere the bridge says so and runs headless,
 so a launch file with ``viewer:=true`` never breaks a headless machine. The viewer thread copies nothing:
 it syncs the live MjData under the robot's lock at ~30 Hz, and follows a reset (a fresh robot) by reopening.
+The window opens on the robot alone (MuJoCo's left and right panels hidden: Tab and Shift+Tab show them).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import logging
 import os
 import threading
+import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -52,7 +54,7 @@ class Viewer:
     def stop(self) -> None:
         self._stop.set()
         if self._thread.is_alive():
-            self._thread.join(3.0)
+            self._thread.join(15.0)  # a window still opening (llvmpipe: seconds) is closed once it is open
 
     def _run(self) -> None:
         import mujoco
@@ -61,7 +63,14 @@ class Viewer:
         try:
             while not self._stop.is_set():
                 robot = self._robot.current
-                with mujoco.viewer.launch_passive(robot.model, robot.data) as viewer:
+                # launch_passive runs mj_forward on the data and its render thread copies it while loading:
+                # under the robot's lock, or that races the sim's mj_step ("mjData while stack is in use",
+                # and the window never opened). The sim waits for the window once (~0.5 s with llvmpipe).
+                with robot.lock:
+                    # the robot fills the window; MuJoCo's panels come back with Tab / Shift+Tab
+                    handle = mujoco.viewer.launch_passive(robot.model, robot.data, show_left_ui=False,
+                                                          show_right_ui=False)  # fmt: skip
+                with handle as viewer:
                     head = robot.model.body(HEAD_BODY).id
                     self._frame(viewer, robot.model)
                     while viewer.is_running() and not self._stop.is_set() and self._robot.current is robot:
@@ -71,6 +80,7 @@ class Viewer:
                         self._stop.wait(1.0 / FPS)
                     if not viewer.is_running():
                         return  # the user closed the window: the sim goes on headless
+                _wait_closed(viewer)
         except Exception:
             log.exception("viewer failed; the sim goes on headless")
 
@@ -93,3 +103,14 @@ class Viewer:
         mujoco.mjv_initGeom(scene.geoms[0], mujoco.mjtGeom.mjGEOM_SPHERE, [LED_RADIUS_M, 0, 0], pos,
                             [1, 0, 0, 0, 1, 0, 0, 0, 1], led_rgba(self._led()))  # fmt: skip
         scene.ngeom = 1
+
+
+def _wait_closed(viewer: Any, timeout_s: float = 5.0) -> None:
+    """Closing the handle only asks MuJoCo's render thread to end; it draws the robot's MjData until it has,
+    and at interpreter exit glfw.terminate under a running render loop is a SIGSEGV (1 exit in 2 before
+    this). Join that thread (Python names it after its target, MuJoCo's ``_launch_internal``)."""
+    viewer.close()
+    deadline = time.monotonic() + timeout_s
+    for thread in threading.enumerate():
+        if thread is not threading.current_thread() and thread.name.endswith("(_launch_internal)"):
+            thread.join(max(0.0, deadline - time.monotonic()))
