@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # System packages the set-up needs besides Python wheels: a C/C++ toolchain and CMake (to compile the
-# interfaces), Python headers, EGL/Mesa for headless MuJoCo pictures, and Debian's Cyclone DDS 0.10.2 (the
-# robot's, for the side environment .venv-cyclone010/). Installs what is missing
+# interfaces), Python headers, EGL/Mesa for headless MuJoCo pictures, GLX and Xvfb for the viewer's window
+# test, and Debian's Cyclone DDS 0.10.2 (the robot's, for the side environment .venv-cyclone010/). Installs what is missing
 # when run as root (Debian), otherwise says what to install.
 set -euo pipefail
 missing=()
@@ -14,6 +14,9 @@ ldconfig -p | grep -q 'libEGL.so.1 ' || missing+=(libegl1)
 ldconfig -p | grep -q 'libEGL_mesa.so.0 ' || missing+=(libegl-mesa0)
 compgen -G "/usr/lib/*/dri/swrast_dri.so" >/dev/null || missing+=(libgl1-mesa-dri)
 compgen -G "/usr/lib/*/libddsc.so" >/dev/null || missing+=(cyclonedds-dev)  # the robot's Cyclone 0.10.2: side env
+command -v Xvfb >/dev/null || missing+=(xvfb)  # the viewer's window test (a virtual display)
+ldconfig -p | grep -q 'libGL.so.1 ' || missing+=(libgl1)  # GLX for the viewer's window
+ldconfig -p | grep -q 'libGLX_mesa.so.0 ' || missing+=(libglx-mesa0)
 [ ${#missing[@]} -eq 0 ] && exit 0
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
   echo "installing system packages: ${missing[*]}"
