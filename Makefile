@@ -46,8 +46,9 @@ lint: setup
 test: setup lint
 	$(BIN)/python -m pytest -n 3 --dist loadgroup
 
+# `make run VIEW=1` opens MuJoCo's viewer on the sim (where a display exists).
 run: setup
-	$(BIN)/g1_demo
+	$(BIN)/g1_demo $(if $(VIEW),--viewer)
 
 bench: setup
 	$(BIN)/python -m bench.run

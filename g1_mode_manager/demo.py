@@ -142,13 +142,15 @@ def main(argv: list[str] | None = None) -> int:
                         help="Unitree SDK2 DDS domain of the sim (loopback)")
     parser.add_argument("--speed", type=float, default=1.0, help="sim speed (1 = real time)")
     parser.add_argument("--no-tour", action="store_true", help="skip the scripted tour")
+    parser.add_argument("--viewer", action="store_true", help="open MuJoCo's viewer on the sim (needs a display)")
     parser.add_argument("--exit", action="store_true", help="stop after the tour instead of waiting for Ctrl-C")
     args = parser.parse_args(argv)
     default_discovery_to_localhost()
     signal.signal(signal.SIGTERM, _interrupt)
 
     py = sys.executable
-    sim = Child("sim", [py, "-u", "-m", "g1_sim.bridge.main", "--speed", str(args.speed), "--ros-args",
+    sim = Child("sim", [py, "-u", "-m", "g1_sim.bridge.main", "--speed", str(args.speed),
+                        *(["--viewer"] if args.viewer else []), "--ros-args",
                         "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo"], "sim_bridge ready")
     children = [sim]
     try:
