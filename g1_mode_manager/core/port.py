@@ -115,10 +115,16 @@ class RobotPort(ModePort, Protocol):
         """Seconds since the last rt/lowstate, or None if none arrived yet."""
 
     def joint_positions(self) -> Sequence[float] | None:
-        """The 29 measured joint positions of the last rt/lowstate, in motor order."""
+        """The 29 measured joint positions in motor order while current (rt/lowstate received, fresh), else None."""
 
     def lowstate_restarts(self) -> int:
         """How often rt/lowstate's tick went back (the robot rebooted) since connect."""
+
+    def set_lowstate_wanted(self, wanted: bool) -> None:
+        """Receive rt/lowstate or not (while not: lowstate_age_s grows, joint_positions is None)."""
+
+    def lowstate_receiving(self) -> bool:
+        """True while rt/lowstate is subscribed (connected and wanted)."""
 
     def close(self) -> None:
         """Stop readers and writers."""

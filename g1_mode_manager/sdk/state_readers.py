@@ -68,8 +68,10 @@ class LatestSample(Generic[T]):
         self._callback: Callable[[T], None] | None = None
         self._listener_lock = threading.Lock()
         self._listeners: list[Listener] = []  # never freed while we live: cyclonedds may call a freed one
-        self._reader: DataReader | None = DataReader(participant, Topic(participant, topic, msg_type),
-                                                     qos=LATEST_ONLY_QOS)  # fmt: skip
+        self._participant = participant
+        self._topic = Topic(participant, topic, msg_type)
+        self._closed = False
+        self._reader: DataReader | None = DataReader(participant, self._topic, qos=LATEST_ONLY_QOS)
         if on_sample is not None:
             self.set_listener(on_sample)
 
@@ -140,10 +142,39 @@ class LatestSample(Generic[T]):
             except Exception:  # a faulty callback must not kill the DDS receive thread
                 _log.exception("callback for %s failed", self.topic)
 
+    @property
+    def receiving(self) -> bool:
+        """True while subscribed (see set_receiving)."""
+        return self._reader is not None
+
+    def set_receiving(self, on: bool) -> None:
+        """Subscribe (``True``) or unsubscribe: while off, the robot sends this process nothing on the topic
+        and Cyclone spends nothing on it; the last sample stays readable. Back on, samples flow again as
+        soon as the writer matched the new reader (a few ms on loopback)."""
+        with self._listener_lock, self._lock:
+            if self._closed or on == (self._reader is not None):
+                return
+            if on:
+                self._reader = DataReader(self._participant, self._topic, qos=LATEST_ONLY_QOS)
+                if self._callback is not None:
+                    listener = Listener(on_data_available=self._on_data)
+                    self._listeners.append(listener)
+                    self._reader.set_listener(listener)
+                return
+            reader, self._reader = self._reader, None
+        _delete(reader)
+
     def close(self) -> None:
         self.set_listener(None)
         with self._lock:
+            self._closed = True
             self._reader = None
+
+
+def _delete(reader: Any) -> None:
+    """Delete the DDS reader now (cyclonedds deletes an entity when its Python object is collected)."""
+    if reader is not None:
+        reader.__del__()
 
 
 @dataclass(frozen=True)
@@ -180,6 +211,8 @@ def decode_lowstate(data: bytes) -> LowStateSnapshot:
                             q=tuple(float(m.q) for m in msg.motor_state[:NUM_JOINTS]), data=data)  # fmt: skip
 
 
+#: A measured pose older than this is not handed out (the robot moves; 500 Hz gives ~2 ms old ones).
+FRESH_POSE_S = 0.1
 #: rt/lowstate's tick (ms) going back by more than this means the robot restarted (not reordering, not
 #: the uint32 wrap after 49 days, which goes back by almost 2**32).
 TICK_RESTART_MS = 1000
@@ -211,9 +244,12 @@ class LowStateReader(LatestSample[LowStateSnapshot]):
         snapshot, _, _ = self.latest()
         return None if snapshot is None else snapshot.mode_machine
 
-    def joint_positions(self) -> tuple[float, ...] | None:
-        snapshot, _, _ = self.latest()
-        return None if snapshot is None else snapshot.q
+    def joint_positions(self, max_age_s: float = FRESH_POSE_S) -> tuple[float, ...] | None:
+        """The measured pose, only while it is current: None when unsubscribed or older than ``max_age_s``."""
+        snapshot, stamp, _ = self.latest()
+        if snapshot is None or self._reader is None or time.monotonic() - stamp > max_age_s:
+            return None
+        return snapshot.q
 
 
 _SPORT: Final = struct.Struct("<IIIf")  # fsm_id, fsm_mode, task_id (uint32), task_time (float32)

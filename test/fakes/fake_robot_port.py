@@ -37,6 +37,7 @@ class FakeRobotPort(FakeRobot):
         self.fail_stream: dict[str, int] = {}  # name -> error code for every call
         self.listener: Callable[[SportState], None] | None = None
         self.restarts = 0
+        self.lowstate_wanted = True
 
     def _record(self, name: str, *args: object) -> None:
         code = self.fail_stream.get(name)
@@ -104,3 +105,9 @@ class FakeRobotPort(FakeRobot):
 
     def lowstate_restarts(self) -> int:
         return self.restarts
+
+    def set_lowstate_wanted(self, wanted: bool) -> None:
+        self.lowstate_wanted = wanted
+
+    def lowstate_receiving(self) -> bool:
+        return self.lowstate_wanted

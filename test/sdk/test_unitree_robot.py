@@ -16,6 +16,7 @@ from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort, Sport
 from g1_mode_manager.sdk import UnitreeRobot
 from g1_mode_manager.sdk.lowcmd import LowCmdWriter
 from g1_mode_manager.sdk.state_readers import LowStateReader
+from support.mode_manager import wait_until
 from support.processes import ManagedProcess
 from support.scripted_robot import events, lowstate_q, start_scripted_robot, wait_event
 
@@ -200,6 +201,28 @@ def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobo
     assert outcome["select"] == "ok"
     order = [e["api_id"] for e in events(proc, "request") if e["api_id"] != 1]
     assert order == [1002, 7101]
+
+
+def test_lowstate_can_be_unsubscribed_and_resubscribed(robot: UnitreeRobot, peer: Peer) -> None:
+    """Off: no sample reaches the port and no pose is handed out (it would be stale); mode_machine stays
+    known. Back on: samples flow again within moments."""
+    peer(lowstate_hz=200, mode_machine=5)
+    assert wait_until(lambda: robot.joint_positions() is not None, 5.0)
+    try:
+        robot.set_lowstate_wanted(False)
+        assert not robot.lowstate_receiving()
+        time.sleep(0.05)  # a sample already in flight may still land
+        _data, count = robot.lowstate_data()
+        time.sleep(0.3)
+        assert robot.lowstate_data()[1] == count, "rt/lowstate still received while unsubscribed"
+        assert robot.joint_positions() is None and robot.mode_machine() == 5
+        assert robot.lowstate_age_s() > 0.25
+        robot.set_lowstate_wanted(True)
+        assert robot.lowstate_receiving()
+        assert wait_until(lambda: robot.lowstate_data()[1] > count + 10, 5.0), "rt/lowstate did not come back"
+        assert robot.joint_positions() == pytest.approx([lowstate_q(i) for i in range(29)], abs=1e-6)
+    finally:
+        robot.set_lowstate_wanted(True)
 
 
 def test_streams_frames_and_state(robot: UnitreeRobot, peer: Peer) -> None:
