@@ -19,6 +19,9 @@ def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: Link
     link_status = DiagnosticStatus(name="g1_mode_manager: robot link", hardware_id=hardware_id)
     if not link.connected:
         link_status.level, link_status.message = DiagnosticStatus.OK, link.reason
+    elif link.ok and link.lowstate_age_s is None:
+        link_status.level = DiagnosticStatus.OK
+        link_status.message = "rt/sportmodestate fresh (rt/lowstate not subscribed: nothing needs it now)"
     elif link.ok:
         link_status.level, link_status.message = DiagnosticStatus.OK, "rt/lowstate and rt/sportmodestate fresh"
     else:

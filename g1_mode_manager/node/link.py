@@ -21,6 +21,8 @@ class LinkReport:
 class LinkHealth:
     """rt/lowstate must be fresh in every connected mode; rt/sportmodestate too in HIGH_LEVEL.
 
+    In HIGH_LEVEL the node may not receive rt/lowstate at all (LowStateDemand: nothing needs it): then
+    rt/sportmodestate, the high-level service's own stream, is the link's evidence on its own.
     Before the first transition nothing is connected: not an error, but nothing may be forwarded.
     """
 
@@ -36,7 +38,10 @@ class LinkHealth:
         low = self._port.lowstate_age_s()
         sport_state = self._port.sport_state()
         sport = None if sport_state is None else sport_state.age_s
-        if low is None or low > self._timeout_s:
+        lowstate_judged = mode is not Mode.HIGH_LEVEL or self._port.lowstate_receiving()
+        if not lowstate_judged:
+            low = None
+        elif low is None or low > self._timeout_s:
             text = "never received" if low is None else f"{low:.2f} s old"
             return LinkReport(False, True, low, sport, f"rt/lowstate {text}")
         if mode is Mode.HIGH_LEVEL and (sport is None or sport > self._timeout_s):

@@ -28,6 +28,7 @@ from g1_mode_manager.node.diagnostics import build_diagnostics
 from g1_mode_manager.node.estop import EstopEndpoint
 from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.node.loco_commands import run_loco_command
+from g1_mode_manager.node.lowstate_demand import LowStateDemand
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
@@ -139,6 +140,8 @@ class ModeManagerNode(Node):
                            busy=self._lowcmd.busy),
         ]
         self._arm_worker, self._lowcmd_worker = self._workers[1], self._workers[2]
+        self._lowstate_demand = LowStateDemand(self._port, self.machine, self._arm.busy, self._link.link_ok,
+                                               always=s.joint_state_rate_hz > 0)
         self.machine.add_leave_listener(self._wake_workers)  # after the relays': exit damping is due now
         for worker in self._workers:
             worker.start()
@@ -207,6 +210,7 @@ class ModeManagerNode(Node):
             self._events.count("set_mode_invalid")
             self.get_logger().warn(f"set_mode refused: {exc}")
             return self._fill_set_mode(response, False, str(exc))
+        self._lowstate_demand.update(target)  # LOW_LEVEL and IDLE judge the link by rt/lowstate: receive it now
         outcome = self.machine.request(target)
         return self._fill_set_mode(response, outcome.success, outcome.message)
 
@@ -250,6 +254,7 @@ class ModeManagerNode(Node):
 
     def _on_arm_cmd(self, msg: JointState) -> None:
         self._arm.submit(list(msg.name), list(msg.position))
+        self._lowstate_demand.update()  # the ramp starts from the measured pose
         self._arm_worker.wake()
 
     def _on_lowcmd(self, msg: JointCommand) -> None:
@@ -337,7 +342,8 @@ class ModeManagerNode(Node):
 
     def _supervise(self, _dt_s: float) -> None:
         """Check the robot against the mode: EMERGENCY re-damped if seen out of damping, a mismatch
-        (another program, a reboot seen in rt/lowstate's tick) stops forwarding."""
+        (another program, a reboot seen in rt/lowstate's tick) stops forwarding. Then rt/lowstate is
+        subscribed or not as needed (LowStateDemand)."""
         restarts = self._port.lowstate_restarts()
         if restarts > self._restarts_seen:
             self._restarts_seen = restarts
@@ -347,6 +353,7 @@ class ModeManagerNode(Node):
             self.machine.supervise()
         else:
             self.machine.supervise(state.fsm_id, state.age_s)
+        self._lowstate_demand.update()
 
     def _relay_log(self, level: str, text: str) -> None:
         logger = self.get_logger()
