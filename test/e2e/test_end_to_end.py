@@ -168,18 +168,28 @@ def _joint_reader(stack):
 
 
 def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(stack_factory) -> None:
+    """Also the path of rt/lowstate on demand: in a settled HIGH_LEVEL the robot sees the node's reader go
+    (nothing needs the 500 Hz stream), and the first arm command brings it back for the ramp's start pose."""
     stack = stack_factory()
+
+    def node_readers() -> int:  # the robot's own count of who receives its rt/lowstate, less those before
+        return stack.sim.get()["readers"]["lowstate"] - others
+
+    others = stack.sim.get()["readers"]["lowstate"]
     assert stack.set_mode("high_level").success
+    assert node_readers() == 1
     q = _joint_reader(stack)
     assert wait_until(lambda: q("left_shoulder_pitch_joint") is not None, 10.0)
     rest = q("left_shoulder_pitch_joint")
     target = -1.0
     arm = stack.ros.node.create_publisher(JointState, "/g1_mode_manager/arm_cmd", 10)
     assert wait_until(lambda: arm.get_subscription_count() > 0, 10.0)
+    assert wait_until(lambda: node_readers() == 0, 6.0, period_s=0.1), "rt/lowstate still received by the idle node"
     end = time.monotonic() + 4.0  # ramp 2 s, then hold
     while time.monotonic() < end:
         arm.publish(JointState(name=["left_shoulder_pitch_joint"], position=[target]))
         time.sleep(0.05)
+    assert node_readers() == 1, "the arm commands did not subscribe rt/lowstate again"
     reached = q("left_shoulder_pitch_joint")
     assert abs(reached - target) < 0.15, f"shoulder at {reached:.3f}, target {target}"
     # silence: the weight ramps back to 0 and the controller takes the arm back

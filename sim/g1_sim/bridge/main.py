@@ -248,6 +248,7 @@ class Bridge:
             "recent_requests": self.requests.recent(),
             "frames": self.intake.counts(),
             "published": self.publishers.counts(),
+            "readers": self.publishers.readers(),
             "firmware": dict(getattr(robot, "counters", {})),
             "faults": self.faults.config.to_json(),
             "damp_fails_left": self.faults.damp_fails_left,

@@ -73,6 +73,19 @@ class StatePublishers:
         with self._lock:
             return dict(self._counts)
 
+    def readers(self) -> dict[str, int]:
+        """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""
+        return {"lowstate": _matched_readers(self._lowstate), "sportmodestate": _matched_readers(self._sport)}
+
+
+def _matched_readers(publisher: ChannelPublisher) -> int:
+    """The publication-matched count the SDK's channel writer keeps (private in the SDK: no accessor)."""
+    try:
+        writer = publisher._ChannelPublisher__channel._Channel__writer
+        return int(writer._Writer__publication_matched_count)
+    except AttributeError:
+        return -1
+
 
 class CommandSubscribers:
     """Readers of rt/lowcmd and rt/arm_sdk, feeding a CommandIntake."""
