@@ -354,7 +354,7 @@ def cpu_rows(bench: Bench, seconds: float) -> list[tuple[str, float]]:
     rows: list[tuple[str, float]] = []
     node = fresh_node(bench, walk=True)
     try:
-        time.sleep(2.0)
+        time.sleep(4.0)  # settled: rt/lowstate unsubscribed 2 s after the last thing that needed it
         rows.append(("node CPU, HIGH_LEVEL walking, no commands", cpu_percent(node.proc.pid, seconds)))
         pub = bench.publisher(Twist, "/cmd_vel")
         msg = Twist()
