@@ -210,7 +210,7 @@ class Bridge:
         self.faults.set(FaultConfig())
         self.robot.swap(self._make_robot())
         self.pacer.set_speed(self.pacer.speed)  # sim time restarts: pace from here
-        self.record.event("reset")
+        self.record.reset()
         self._record_state()
 
     # --- the robot's record ---------------------------------------------------------------------------

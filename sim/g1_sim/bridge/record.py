@@ -53,6 +53,13 @@ class Recorder:
             self._state = key
         self.event("state", fsm=key[0], svc=key[1], fsm_mode=key[2])
 
+    def reset(self) -> None:
+        """Record a ``reset`` and forget the last state, so the boot state after it is always recorded (a test
+        reading only the events after the reset must see the state they start from)."""
+        with self._lock:
+            self._state = None
+        self.event("reset")
+
     def close(self) -> None:
         with self._lock:
             if self._file is not None:
