@@ -560,6 +560,19 @@ class ModeMachine:
                 self._estop_running = False
                 self._estop_cond.notify_all()
 
+    def _drain_sends(self, deadline: float) -> bool:
+        """Wait until a relay send that was under way when the e-stop registered has finished.
+
+        Registration waits only ``forward_wait_s`` for the forward gate (the e-stop is never held up by a
+        relay); a send allowed before it may still be on its way, e.g. an arm frame whose thread was
+        descheduled. No new send passes after registration, so once the gate is free only damping reaches
+        the robot, and the sequence's Damp lands after that last send (seen in the chaos suite under load:
+        an arm_sdk frame received after the sequence's Damp)."""
+        if not self._forward_lock.acquire(timeout=max(0.0, deadline - self._clock())):
+            return False
+        self._forward_lock.release()
+        return True
+
     def _current_gen(self) -> int:
         with self._state_lock:
             return self._estop_gen
@@ -583,6 +596,8 @@ class ModeMachine:
                     calls.connect()
                     self._set_connected()
                     notes += self._fire_damp_no_reply()
+                if not self._drain_sends(deadline):
+                    notes.append("a relay send under way at the e-stop did not finish in time")
                 remaining = max(timing.call_s, deadline - self._clock())
                 if ensure_service_active(calls, timeout_s=min(timing.select_s, remaining),
                                          poll_interval_s=self._poll_interval_s, clock=self._clock, sleep=self._sleep):

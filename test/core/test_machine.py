@@ -626,3 +626,36 @@ def test_a_second_estop_fires_at_once_and_joins_the_running_sequence() -> None:
     assert out1[0].success and out2[0].success
     assert rig.machine.is_emergency() and rig.robot.damped
     assert rig.robot.names().count("damp") == 1  # one sequence served both requests
+
+
+def test_a_relay_send_held_past_the_forward_wait_lands_before_the_sequences_damp() -> None:
+    """Registration waits only forward_wait_s for the forward gate; a send allowed before it that is still on
+    its way (a descheduled relay thread) must reach the robot before the e-stop sequence's own Damp."""
+    rig = make_rig(real_time=True)
+    rig.bring_to(HI)
+    inside, finish = threading.Event(), threading.Event()
+    before_send: list[str] = []
+
+    def relay_send() -> None:
+        with rig.machine.forwarding(lambda mode: mode is HI) as allowed:
+            assert allowed
+            inside.set()
+            finish.wait(5.0)  # the relay thread stalls mid-send, past the e-stop's 50 ms wait
+            before_send.extend(rig.robot.names())
+            rig.robot.undamp()  # stands in for the frame the relay was sending (it moves the robot)
+
+    relay = threading.Thread(target=relay_send)
+    relay.start()
+    assert inside.wait(5.0)
+    estop, out = _in_thread(rig.machine.estop)
+    deadline = time.monotonic() + 5
+    while "damp_no_reply" not in rig.robot.names() and time.monotonic() < deadline:
+        time.sleep(0.001)
+    time.sleep(0.2)  # registered (without the gate) and the sequence is running
+    assert rig.machine.is_emergency()
+    assert "damp" not in rig.robot.names(), "the sequence's Damp went out while a relay send was still on its way"
+    finish.set()
+    relay.join(5)
+    estop.join(5)
+    assert "damp" not in before_send and "damp" in rig.robot.names()  # the Damp came after the send
+    assert out[0].success and rig.robot.damped
