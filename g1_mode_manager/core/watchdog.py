@@ -38,6 +38,11 @@ class Watchdog:
         with self._lock:
             return None if self._last is None else self._clock() - self._last
 
+    def deadline(self) -> float | None:
+        """When the stream will count as silent (clock time), or None if nothing was fed."""
+        with self._lock:
+            return None if self._last is None else self._last + self._timeout_s
+
     def expired(self) -> bool:
         age = self.age_s()
         return age is None or age > self._timeout_s

@@ -21,7 +21,7 @@ class Settings:
     select_timeout_s: float = 10.0
     release_timeout_s: float = 5.0
     cmd_vel_timeout: float = 0.5
-    cmd_vel_rate_hz: float = 20.0
+    cmd_vel_rate_hz: float = 10.0
     cmd_vel_max_rate_hz: float = 50.0
     move_duration_s: float = 1.0
     max_vx: float = VelocityLimits.max_vx
@@ -81,7 +81,8 @@ _DESCRIPTIONS: dict[str, str] = {
     "select_timeout_s": "How long SelectMode('ai') plus its confirmation may take, s (a real robot takes seconds).",
     "release_timeout_s": "How long ReleaseMode may take until CheckMode reports no service, s.",
     "cmd_vel_timeout": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
-    "cmd_vel_rate_hz": "Keep-alive rate of a running Move and of the watchdog, Hz (a new /cmd_vel is sent at once).",
+    "cmd_vel_rate_hz": "Keep-alive rate of a steady Move, Hz (a new /cmd_vel is sent at once, a ramp steps at 20 Hz, "
+    "the watchdog has its own deadline).",
     "cmd_vel_max_rate_hz": "At most this many Moves per second reach the robot, whatever the /cmd_vel rate, Hz.",
     "move_duration_s": "Lease of each Move (at most 2 s): the robot stops by itself if no newer Move arrives, s. "
     "The real robot ignores velocities below about 0.1; such commands are sent as one StopMove.",

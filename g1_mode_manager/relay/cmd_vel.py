@@ -1,8 +1,10 @@
 """/cmd_vel -> LocoClient Move, in HIGH_LEVEL only: sanitised, clamped, rate-limited, latest-wins, watchdog.
 
 A command is sent as soon as it arrives, by a sender thread of its own (the /cmd_vel callback only
-stores it and wakes the thread: a blocking RPC there would stall the node's executor). A fixed-rate
-tick keeps a running Move alive and runs the watchdog; Moves never exceed ``max_rate_hz``.
+stores it and wakes the thread: a blocking RPC there would stall the node's executor). While the
+acceleration limiter still ramps toward the command the sender steps every RAMP_PERIOD_S; a steady Move
+is repeated at the keep-alive rate (``rate_hz``); the watchdog wakes the sender at its own deadline.
+Moves never exceed ``max_rate_hz``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
+#: While the command is still ramping, the sender steps this often (and this is the limiter's largest dt).
+RAMP_PERIOD_S = 0.05
 #: A StopMove that got no answer is sent again up to this many times in all; after that the robot
 #: stops by itself when the last Move's lease (move_duration_s) runs out.
 STOP_ATTEMPTS = 5
@@ -56,8 +60,9 @@ class CmdVelRelay:
         self._events = events
         self._limits = limits
         self._period_s = 1.0 / rate_hz
+        self._ramp_s = min(self._period_s, RAMP_PERIOD_S)
         self._min_interval_s = 1.0 / max_rate_hz
-        self._limiter = RateLimiter(limits, max_dt_s=self._period_s)
+        self._limiter = RateLimiter(limits, max_dt_s=self._ramp_s)
         self._watchdog = Watchdog(timeout_s, clock)
         self._move_duration_s = check_move_duration(move_duration_s)
         self._on_error = on_error
@@ -124,7 +129,7 @@ class CmdVelRelay:
         last_step = self._clock()
         while not self._stopped.is_set():
             # idle (no Move may be running, none owed, no fresh command): sleep until submit/on_leave/stop
-            self._wake.wait(None if self._idle() else max(0.0, last_step + self._period_s - self._clock()))
+            self._wake.wait(self._next_step_in(last_step))
             self._wake.clear()
             if self._stopped.wait(max(0.0, self._last_send + self._min_interval_s - self._clock())):
                 break
@@ -137,6 +142,20 @@ class CmdVelRelay:
 
     def _idle(self) -> bool:
         return not self._maybe_moving and self._stop_reason is None and self._watchdog.expired()
+
+    def _next_step_in(self, last_step: float) -> float | None:
+        """Seconds until the next step: the ramp's tick while ramping, else the keep-alive, or the watchdog's
+        deadline if that comes first; None when idle (only a wake starts a step)."""
+        if self._idle():
+            return None
+        with self._lock:
+            ramping = self._target != self._limiter.current
+        now = self._clock()
+        due = last_step + (self._ramp_s if ramping else self._period_s)
+        deadline = self._watchdog.deadline()
+        if deadline is not None and now < deadline < due:
+            due = deadline + 0.001  # just past it: the step sees the watchdog expired
+        return max(0.0, due - now)
 
     def step(self) -> None:
         """One decision with the latest command: at most one Move or StopMove."""
@@ -152,7 +171,7 @@ class CmdVelRelay:
         with self._lock:
             target = self._target
         now = self._clock()
-        dt = self._period_s if self._last_ack is None else now - self._last_ack
+        dt = self._ramp_s if self._last_ack is None else now - self._last_ack
         v = self._limiter.propose(target, dt)
         if in_dead_band(v) and in_dead_band(target):
             self._rest("command below the robot's dead band (0.1)")

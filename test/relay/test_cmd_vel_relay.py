@@ -226,3 +226,26 @@ def test_sender_thread_caps_the_move_rate(events) -> None:
         relay.stop()
     moves = [m for m in _moves(port) if m != STOP]
     assert 1 <= len(moves) <= elapsed * 20.0 + 2
+
+
+def test_ramp_steps_every_50_ms_a_steady_move_at_the_keep_alive_and_the_watchdog_at_its_deadline(events,
+                                                                                               clock) -> None:
+    """rate_hz 10 (the default): while the limiter ramps the sender steps every 50 ms; once the robot runs the
+    command, every 100 ms; and silence is acted on at the watchdog's deadline, not at the next tick."""
+    port = FakeRobotPort()
+    relay = CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
+                        limits=LIMITS, timeout_s=0.5, move_duration_s=1.0, rate_hz=10.0, clock=clock)  # fmt: skip
+    relay.submit(0.1, 0.0, 0.0)
+    relay.step()  # first step of the ramp: 0.05 of 0.1 (1 m/s^2 over 50 ms)
+    assert [m[0] for m in _moves(port)] == pytest.approx([0.05])
+    assert relay._next_step_in(clock.t) == pytest.approx(0.05)  # still ramping
+    for _ in range(2):  # 0.05 s of float clock is a hair less than 0.05: a last step lands exactly on 0.1
+        clock.t += 0.05
+        relay.step()
+    assert _moves(port)[-1][0] == 0.1
+    assert relay._next_step_in(clock.t) == pytest.approx(0.1)  # the robot runs the command: keep-alive
+    clock.t += 0.39  # the last command came 0.49 s ago: the watchdog (0.5 s) comes before the next tick
+    assert relay._next_step_in(clock.t - 0.04) == pytest.approx(0.011)
+    clock.t += 0.011
+    relay.step()
+    assert _moves(port)[-1] == STOP  # the watchdog's StopMove, 1 ms after its deadline
