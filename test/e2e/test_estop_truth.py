@@ -145,8 +145,12 @@ def test_no_move_reaches_the_robot_after_the_estop(stack_factory) -> None:
     late = [(e["t"] - cut, e["p"]) for e in requests(events, api_ids.LOCO_SET_VELOCITY)
             if e["t"] > cut and any(velocity_of(e))]
     assert late == [], late
-    moves = requests(stack.record.events(), api_ids.LOCO_SET_VELOCITY)
-    assert len(moves) > 20, "no Move before the e-stop: the scenario exercised nothing"
+    # the scenario exercised something: Moves flowed (the ramp at 20 Hz, then the 10 Hz keep-alive) up to the
+    # e-stop, the last one within a few keep-alive periods of it
+    before = [e for e in requests(stack.record.events(), api_ids.LOCO_SET_VELOCITY)
+              if e["t"] < t_request and any(velocity_of(e))]
+    assert len(before) >= 10, f"{len(before)} Moves before the e-stop: the scenario exercised nothing"
+    assert t_request - before[-1]["t"] < 0.3, "Moves had stopped before the e-stop"
 
 
 _OTHER: list = []
