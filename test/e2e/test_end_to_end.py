@@ -15,7 +15,7 @@ from sensor_msgs.msg import JointState
 from g1_mode_manager.node.mode_manager import MODE_QOS
 from g1_mode_manager.protocol import api_ids
 from support.mode_manager import wait_until
-from support.sim_record import requests, velocity_of
+from support.sim_record import is_damp, requests, velocity_of
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
@@ -95,12 +95,15 @@ def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(stack_factory)
         t0 = time.monotonic()
         threading.Thread(target=lambda: estop_result.append(stack.estop()), daemon=True).start()
         reached = wait_until(lambda: stack.requests(SPORT, api_ids.LOCO_SET_FSM_ID) > damps, 2.0, period_s=0.002)
-        latency = time.monotonic() - t0
         mode_reply = pending.result(30.0)
     assert wait_until(lambda: bool(estop_result), 30.0)
-    print(f"e-stop during a 5 s SelectMode: Damp counted by the sim {latency * 1000:.1f} ms after the request "
-          f"(includes status polling); e-stop finished: {estop_result[0].message}")
-    assert reached and latency < 0.1
+    # the robot's record: when the first Damp arrived, against the SelectMode the sim holds for 5 s (an e-stop
+    # that waited for it would come seconds late; the figure itself is the bench's business)
+    first_damp = next(e["t"] for e in requests(stack.record.events(since=t0)) if is_damp(e))
+    latency = first_damp - t0
+    print(f"e-stop during a 5 s SelectMode: first Damp received by the robot {latency * 1000:.1f} ms after the "
+          f"request; e-stop finished: {estop_result[0].message}")
+    assert reached and latency < 1.0
     assert mode_reply.mode == Mode.EMERGENCY
     assert estop_result[0].success, estop_result[0].message
     assert stack.sim.get()["sport"]["fsm_id"] == 1
