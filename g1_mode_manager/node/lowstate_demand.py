@@ -36,10 +36,11 @@ class LowStateDemand:
         self._last_needed = clock()
 
     def needed(self, target: Mode | None = None) -> bool:
+        # the cheap answers first: every ~/arm_cmd (50 Hz) asks, and arms in play answer it at once
+        if self._always or self._arms_busy() or (target is not None and target is not Mode.HIGH_LEVEL):
+            return True
         status = self._machine.status()
-        return (self._always or status.mode is not Mode.HIGH_LEVEL or status.transition_in_progress
-                or (target is not None and target is not Mode.HIGH_LEVEL) or self._arms_busy()
-                or not self._link_ok())
+        return status.mode is not Mode.HIGH_LEVEL or status.transition_in_progress or not self._link_ok()
 
     def update(self, target: Mode | None = None) -> None:
         """Subscribe at once when needed (``target``: a transition about to start); unsubscribe after hold_s."""
