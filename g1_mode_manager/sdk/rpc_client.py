@@ -4,9 +4,10 @@ The SDK's ``Client._Call`` reads one timeout shared by every thread (``SetTimeou
 that long (once for the topic match, once for the reply), never removes the future of a timed-out call
 (``RequestFutureQueue.Remove`` tests the builtin ``id``), and returns bare codes that callers drop.
 Here each call has its own deadline, ids are unique across threads, stale futures are removed, and
-every failure raises :class:`RobotError`. The SDK's transport is reused as is: its ``ClientStub``
-keys futures by request id under a lock and writes through a thread-safe DDS writer, so calls from
-several threads at once (an e-stop's damp while a select_mode waits) are safe.
+every failure raises :class:`RobotError`. The SDK's transport is reused: its ``ClientStub`` keys
+futures by request id under a lock and its request writer is a thread-safe DDS writer, so calls from
+several threads at once (an e-stop's damp while a select_mode waits) are safe. Requests are written on
+that writer as ready-made bytes (``request_writer.py``: ~0.2 ms less per call than the IDL serialiser).
 """
 
 from __future__ import annotations
@@ -17,15 +18,9 @@ import time
 from collections.abc import Iterable
 from typing import Any
 
-from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
-    Request_,
-    RequestHeader_,
-    RequestIdentity_,
-    RequestLease_,
-    RequestPolicy_,
-)
 from unitree_sdk2py.rpc.client import Client
 from unitree_sdk2py.rpc.internal import RPC_API_ID_INTERNAL_API_VERSION
+from unitree_sdk2py.rpc.request_future import RequestFuture
 from unitree_sdk2py.utils.future import FutureResult
 
 from g1_mode_manager.core.port import RobotError
@@ -38,6 +33,7 @@ from g1_mode_manager.protocol.api_ids import (
     ERR_UNKNOWN,
     OK,
 )
+from g1_mode_manager.sdk.request_writer import RequestWriter
 
 
 class RpcClient(Client):
@@ -56,7 +52,8 @@ class RpcClient(Client):
         # Used only by the SDK's own no-reply path (its wait for a topic match); never changed later.
         self.SetTimeout(self.timeout_s)
         self._stub = self._ClientBase__stub  # the SDK's transport: writer, reader, futures by id
-        self._futures = getattr(self._stub, "_ClientStub__futureQueue", None)
+        self._futures = self._stub._ClientStub__futureQueue
+        self._writer = RequestWriter(self._stub)
         self._id_lock = threading.Lock()
         self._last_id = 0
 
@@ -66,14 +63,8 @@ class RpcClient(Client):
             self._last_id = max(time.monotonic_ns(), self._last_id + 1)
             return self._last_id
 
-    def _request(self, api_id: int, parameter: str, *, noreply: bool) -> Request_:
-        header = RequestHeader_(RequestIdentity_(self._next_id(), api_id), RequestLease_(0),
-                                RequestPolicy_(0, noreply))  # fmt: skip
-        return Request_(header, parameter, [])
-
     def _drop_future(self, request_id: int) -> None:
-        if self._futures is not None:
-            self._futures.Get(request_id)  # Get pops; the SDK's Remove never does
+        self._futures.Get(request_id)  # Get pops; the SDK's Remove never does
 
     def call(self, name: str, api_id: int, parameter: Any = None, *, timeout_s: float | None = None) -> str:
         """Send a request and wait for its reply; returns the reply's data string.
@@ -86,10 +77,12 @@ class RpcClient(Client):
         timeout = self.timeout_s if timeout_s is None else float(timeout_s)
         deadline = time.monotonic() + timeout
         text = "{}" if parameter is None else json.dumps(parameter)
-        request = self._request(api_id, text, noreply=False)
-        request_id = request.header.identity.id
-        future = self._stub.SendRequest(request, timeout)  # waits for a matched server up to timeout
-        if future is None:
+        request_id = self._next_id()
+        future = RequestFuture()  # registered before the write: the reply may come before write() returns
+        future.SetRequestId(request_id)
+        self._futures.Set(request_id, future)
+        if not self._writer.write(request_id, api_id, text, False, timeout):  # waits for a matched server
+            self._drop_future(request_id)
             raise RobotError(name, ERR_CLIENT_SEND, f"no {self.service!r} server matched within {timeout:.2f} s")
         result = future.GetResult(max(0.0, deadline - time.monotonic()))
         if result.code != FutureResult.FUTURE_SUCC:
@@ -117,7 +110,7 @@ class RpcClient(Client):
         text = "{}" if parameter is None else json.dumps(parameter)
         if api_id not in self._api_ids:
             raise RobotError(name, ERR_CLIENT_API_NOT_REG, f"api {api_id} not registered for {self.service!r}")
-        if not self._stub.Send(self._request(api_id, text, noreply=True), None):  # None: no wait for a match
+        if not self._writer.write(self._next_id(), api_id, text, True, None):  # None: no wait for a match
             raise RobotError(name, ERR_CLIENT_SEND, f"{self.service} api {api_id} {text} (no-reply)")
 
     def server_api_version(self, *, timeout_s: float | None = None) -> str:
