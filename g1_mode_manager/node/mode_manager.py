@@ -145,7 +145,7 @@ class ModeManagerNode(Node):
         self.machine.add_leave_listener(self._wake_workers)  # after the relays': exit damping is due now
         for worker in self._workers:
             worker.start()
-        self._estop = EstopEndpoint(self, self.machine.estop)
+        self._estop = EstopEndpoint(self, self.machine.estop_shot, self.machine.estop)
         self._estop.start()
         self._supervisor = PeriodicWorker("supervisor", s.supervise_rate_hz, self._supervise, self._worker_error)
         self._supervisor.start()
