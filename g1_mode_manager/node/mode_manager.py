@@ -32,6 +32,7 @@ from g1_mode_manager.node.lowstate_demand import LowStateDemand
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
+from g1_mode_manager.node.twist_cdr import twist_velocity
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
@@ -119,7 +120,7 @@ class ModeManagerNode(Node):
         if s.cmd_vel_stamped:
             self._streams.subscribe(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
         else:
-            self._streams.subscribe(Twist, "cmd_vel", self._on_cmd_vel)
+            self._streams.subscribe(Twist, "cmd_vel", self._on_cmd_vel, raw=True)  # decoded by twist_cdr
         self._streams.subscribe(JointState, f"{under_main}/arm_cmd", self._on_arm_cmd)
         self._streams.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd)
 
@@ -232,8 +233,8 @@ class ModeManagerNode(Node):
         return response
 
     # --- command streams -------------------------------------------------------------------------
-    def _on_cmd_vel(self, msg: Twist) -> None:
-        self._cmd_vel.submit(msg.linear.x, msg.linear.y, msg.angular.z)
+    def _on_cmd_vel(self, data: bytes) -> None:
+        self._cmd_vel.submit(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
         """issue 11: a command older than cmd_vel_timeout is dropped and counted (it would restart a
