@@ -98,16 +98,17 @@ class RpcClient(Client):
             raise RobotError(name, code, f"{self.service} api {api_id} {text}")
         return response.data
 
-    def call_no_reply(self, name: str, api_id: int, parameter: Any = None) -> None:
+    def call_no_reply(self, name: str, api_id: int, parameter: Any = None, *, text: str | None = None) -> None:
         """Send a request flagged no-reply (the server runs it and answers nothing): written at once.
 
         The SDK's own ``_CallNoReply`` first waits up to the client's timeout (1 s) for a matched server,
         polling every 0.1 s: an e-stop's first shot on a dead link sat there, in front of everything
         after it. Here nothing waits: with no server matched the request reaches nobody, and what
         follows (the e-stop's Damp with its own timeout) finds that out. Raises RobotError(3102) only
-        if the DDS write itself failed.
+        if the DDS write itself failed. ``text``: the parameter already JSON-encoded (the e-stop's, made once).
         """
-        text = "{}" if parameter is None else json.dumps(parameter)
+        if text is None:
+            text = "{}" if parameter is None else json.dumps(parameter)
         if api_id not in self._api_ids:
             raise RobotError(name, ERR_CLIENT_API_NOT_REG, f"api {api_id} not registered for {self.service!r}")
         if not self._writer.write(self._next_id(), api_id, text, True, None):  # None: no wait for a match
