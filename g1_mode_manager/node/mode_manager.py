@@ -273,7 +273,9 @@ class ModeManagerNode(Node):
 
     def _mirror_sport_state(self) -> None:
         """Publish the newest rt/sportmodestate once (stamped with its receive time); a timer, not a
-        callback per sample: the robot may publish it at 500 Hz."""
+        callback per sample: the robot may publish it at 500 Hz. Nobody subscribed: nothing read or sent."""
+        if self._sport_pub.get_subscription_count() == 0:
+            return
         state = self._port.sport_state()
         if state is None:
             return
