@@ -213,10 +213,16 @@ class Flood:
 
 def fresh_node(bench: Bench, mode: str = "high_level", walk: bool = False):
     node = start_mode_manager(SDK_DOMAIN)
-    bench.ros.wait_node_answers()
-    assert bench.set_mode(mode).success
-    if walk:
-        bench.loco("start")
+    try:
+        bench.ros.wait_node_answers()
+        result = bench.set_mode(mode)
+        assert result.success, result.message
+        if walk:
+            bench.loco("start")
+    except BaseException:  # never leave a node running behind a failed bench
+        print(f"mode_manager output:\n{node.output()[-3000:]}", file=sys.stderr)
+        node.stop()
+        raise
     return node
 
 
