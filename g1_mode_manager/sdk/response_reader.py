@@ -35,6 +35,8 @@ _ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 _IDS_LE: Final = struct.Struct("<qqi")  # identity.id, identity.api_id, status.code
 _IDS_BE: Final = struct.Struct(">qqi")
 _TAKE_MAX: Final = 16
+#: Listeners Cyclone may still call: kept for the life of the process (freeing one can crash a DDS thread).
+_NEVER_FREED: list[Any] = []
 
 
 class Reply(NamedTuple):
@@ -86,9 +88,14 @@ class ResponseReader:
         self._decode = decode if self._decoding_is_exact() else _decode_slow
         self.fast = self._decode is decode
         self._errors = 0
-        self._listener = Listener(on_data_available=self._on_data)  # kept: Cyclone calls it while we live
+        self._listener = Listener(on_data_available=self._on_data)
+        _NEVER_FREED.append(self._listener)
         self._reader = DataReader(sdk_participant(), sdk_reader.topic, sdk_reader.get_qos(), self._listener)
-        channel.CloseReader()  # the SDK's reader and its queue thread: dds_delete waits for a running callback
+        # The SDK's reader stops calling Python: its listener is removed, but the Python object behind it is
+        # kept (cyclonedds frees it before Cyclone stops using it; Cyclone's threads then call freed memory:
+        # a SIGSEGV in a 'gc' thread seen in a full run when the reader itself was closed).
+        _NEVER_FREED.append(sdk_reader._listener)
+        sdk_reader.set_listener(None)
 
     @staticmethod
     def _decoding_is_exact() -> bool:
@@ -156,4 +163,3 @@ class ResponseReader:
     def close(self) -> None:
         with self._lock:
             self._pending.clear()
-        self._reader = None
