@@ -213,10 +213,16 @@ class Flood:
 
 def fresh_node(bench: Bench, mode: str = "high_level", walk: bool = False):
     node = start_mode_manager(SDK_DOMAIN)
-    bench.ros.wait_node_answers()
-    assert bench.set_mode(mode).success
-    if walk:
-        bench.loco("start")
+    try:
+        bench.ros.wait_node_answers()
+        result = bench.set_mode(mode)
+        assert result.success, result.message
+        if walk:
+            bench.loco("start")
+    except BaseException:  # never leave a node running behind a failed bench
+        print(f"mode_manager output:\n{node.output()[-3000:]}", file=sys.stderr)
+        node.stop()
+        raise
     return node
 
 
@@ -294,24 +300,36 @@ def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = 
 _RAW: dict = {}  # SDK clients must never be collected
 
 
-def raw_round_trips(samples: int) -> tuple[Stats, Stats]:
-    """The SDK alone from this process: GetFsmId (an RPC) and SetVelocity (a Move) round trips."""
+def raw_round_trips(samples: int) -> dict[str, tuple[Stats, Stats]]:
+    """GetFsmId (an RPC) and SetVelocity (a Move) round trips from this process, without the node: through
+    Unitree's stock SDK client (``unitree_sdk2py.g1.loco.g1_loco_client.LocoClient``: the SDK's own
+    latency, the goals' reference) and through this project's client (``sdk/loco_client.py``: ready-made
+    request bytes, per-call deadlines), interleaved so that both see the same moments of the machine."""
+    from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient as StockLocoClient
+
     from g1_mode_manager.sdk.loco_client import LocoClient
 
-    client = _RAW.setdefault("loco", LocoClient(1.0))
-    client.wait_ready(5.0)
-    rpc, move = [], []
+    ours = _RAW.setdefault("loco", LocoClient(1.0))
+    ours.wait_ready(5.0)
+    stock = _RAW.get("stock")
+    if stock is None:
+        stock = _RAW["stock"] = StockLocoClient()
+        stock.SetTimeout(1.0)
+        stock.Init()
+    calls = {
+        "stock": (lambda: stock._Call(api_ids.LOCO_GET_FSM_ID, "{}"), lambda: stock.SetVelocity(0.2, 0.0, 0.0, 1.0)),
+        "ours": (ours.get_fsm_id, lambda: ours.set_velocity(0.2, 0.0, 0.0, 1.0)),
+    }
+    times: dict[str, tuple[list[float], list[float]]] = {k: ([], []) for k in calls}
     for _ in range(samples):
-        t0 = time.monotonic()
-        client.get_fsm_id()
-        rpc.append(time.monotonic() - t0)
-        time.sleep(0.005)
-        t0 = time.monotonic()
-        client.set_velocity(0.2, 0.0, 0.0, 1.0)
-        move.append(time.monotonic() - t0)
-        time.sleep(0.005)
-    client.stop_move()
-    return Stats(rpc), Stats(move)
+        for key, (rpc, move) in calls.items():
+            for call, out in ((rpc, times[key][0]), (move, times[key][1])):
+                t0 = time.monotonic()
+                call()
+                out.append(time.monotonic() - t0)
+                time.sleep(0.005)
+    ours.stop_move()
+    return {k: (Stats(rpc), Stats(move)) for k, (rpc, move) in times.items()}
 
 
 def cpu_percent(pid: int, seconds: float, during: Callable[[], None] | None = None) -> float:
@@ -417,9 +435,12 @@ def main(argv: list[str] | None = None) -> int:
                 flooded = cmd_vel_latency(bench, sim, 50, flood)
             rows.append((f"/cmd_vel 2 x {flood.rate_hz:.0f} Hz -> new value's Move received", flooded.text()))
             time.sleep(1.0)  # the node's watchdog stops the robot; it stays in walk mode (fsm 500): Moves pass
-            raw_rpc, raw_move = raw_round_trips(200)
+            raw = raw_round_trips(200)
+            raw_rpc, raw_move = raw["stock"]
             rows[:0] = [("raw SDK RPC (GetFsmId) round trip, this run", raw_rpc.text()),
-                        ("raw SDK Move (SetVelocity) round trip, this run", raw_move.text())]
+                        ("raw SDK Move (SetVelocity) round trip, this run", raw_move.text()),
+                        ("  the same through this project's client: RPC", raw["ours"][0].text()),
+                        ("  the same through this project's client: Move", raw["ours"][1].text())]
             summary.update(raw_rpc_p99_ms=raw_rpc.p99(), raw_move_median_ms=raw_move.median(),
                            raw_move_p99_ms=raw_move.p99())
         finally:

@@ -294,17 +294,22 @@ class ModeMachine:
         finally:
             self._transition_lock.release()
 
-    def estop(self, *, wait: bool = True) -> Outcome:
+    def estop_shot(self) -> list[str]:
+        """The e-stop's first packet alone: a DampNoReply if the robot is connected (a plain read in front
+        of it, nothing else). For an endpoint that fires it from the thread that took the request and runs
+        ``estop(fired=...)`` in another; returns the notes to pass on (why it failed, if it did)."""
+        return self._fire_damp_no_reply() if self._connected else []
+
+    def estop(self, *, wait: bool = True, fired: list[str] | None = None) -> Outcome:
         """Enter EMERGENCY now and damp the robot; always ends in EMERGENCY, whatever fails.
 
         success=True only once the robot itself was seen damped with the service active. With
         ``wait=False`` (a topic), the sequence runs in a thread of its own and the outcome only
-        says the e-stop was registered.
+        says the e-stop was registered. ``fired``: the caller already sent the first packet
+        (``estop_shot()``; its notes), else it goes out here first.
         """
         start = self._clock()
-        notes: list[str] = []
-        if self._connected:  # the fastest shot first, with nothing in front of it (a plain read)
-            notes += self._fire_damp_no_reply()
+        notes = self.estop_shot() if fired is None else list(fired)  # the fastest shot first
         registered = self._forward_lock.acquire(timeout=self._timing.forward_wait_s)
         try:
             with self._state_lock:

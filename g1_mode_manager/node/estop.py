@@ -1,65 +1,101 @@
-"""The e-stop endpoints, on their own node and executor so that they always get through.
+"""The e-stop endpoints, on a node and thread of their own so that they always get through, at once.
 
 The main node's executor threads may all be busy (a slow SelectMode, a flood of service calls); the
-e-stop service and topic are served by a separate executor with threads of its own and call the mode
-machine's estop(), which fires its DampNoReply before anything else and never waits for a transition
-in flight. Several requests at once each fire their own DampNoReply and then join the one damping
-sequence that runs (the machine coalesces them), so none queues behind another's sequence.
+e-stop service and topic are taken by a thread of their own from a wait set of just them
+(``StreamTaker``), which fires the e-stop's first packet (the mode machine's DampNoReply) right where it
+took the request: no executor dispatch, no pool hand-off, no log line in front of it. The rest (EMERGENCY
+registered under the forward gate, the damping sequence, the answer) runs in a pool thread, which calls
+the machine's estop() and answers from there. Several requests at once each fire their own DampNoReply
+and then join the one damping sequence that runs (the machine coalesces them), so none queues behind
+another's sequence.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
-from rclpy.callback_groups import ReentrantCallbackGroup
-from rclpy.executors import MultiThreadedExecutor
+import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
 from g1_mode_manager.core.records import Outcome
-from g1_mode_manager.node.side_node import SideNode
+from g1_mode_manager.node.stream_taker import Respond, StreamTaker
+
+_log = logging.getLogger(__name__)
 
 #: /estop: a BEST_EFFORT subscription matches RELIABLE and BEST_EFFORT publishers alike (hardware
 #: buttons and micro-ROS bridges usually publish best effort; a RELIABLE one would never hear them).
 ESTOP_TOPIC_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
-#: Service requests handled at once; more wait for a thread (each holds one only while its sequence runs).
+#: Requests whose sequence runs at once; more wait for a thread (each has fired its DampNoReply already,
+#: and each holds a thread only while it waits for the one running sequence).
 ESTOP_THREADS = 4
 
+EstopShot = Callable[[], list[str]]
 EstopCall = Callable[..., Outcome]
 
 
 class EstopEndpoint:
-    """Serves `<main node>/estop` (std_srvs/Trigger) and listens to `/estop` (std_msgs/Bool, true = stop)."""
+    """Serves `<main node>/estop` (std_srvs/Trigger) and listens to `/estop` (std_msgs/Bool, true = stop).
 
-    def __init__(self, main: Node, estop: EstopCall) -> None:
+    ``shot()`` sends the first packet and returns its notes; ``estop(wait=..., fired=notes)`` does the rest.
+    """
+
+    def __init__(self, main: Node, shot: EstopShot, estop: EstopCall) -> None:
+        self._shot = shot
         self._estop = estop
         self._log = main.get_logger()
-        self._side = SideNode(main, "estop", MultiThreadedExecutor(num_threads=ESTOP_THREADS, context=main.context))
-        group = ReentrantCallbackGroup()
-        self.service_name = self._side.name_under_main("estop")
-        self._side.node.create_service(Trigger, self.service_name, self._on_trigger, callback_group=group)
-        self._side.node.create_subscription(Bool, "/estop", self._on_topic, ESTOP_TOPIC_QOS, callback_group=group)
+        self.service_name = f"{main.get_fully_qualified_name()}/estop"
+        self._node = rclpy.create_node(f"{main.get_name()}_estop", namespace=main.get_namespace(),
+                                       context=main.context, start_parameter_services=False)  # fmt: skip
+        self._pool = ThreadPoolExecutor(max_workers=ESTOP_THREADS, thread_name_prefix="estop")
+        self._taker = StreamTaker(self._node, "estop_taker", self._error)
+        self._taker.serve(Trigger, self.service_name, self._on_trigger)
+        self._taker.subscribe(Bool, "/estop", self._on_topic, ESTOP_TOPIC_QOS)
 
     def start(self) -> None:
-        self._side.start()
+        self._taker.start()
 
-    def shutdown(self) -> None:
-        self._side.shutdown()
+    def shutdown(self, timeout_s: float = 1.0) -> None:
+        """Stop taking requests; a sequence still running is not waited for (the process is exiting)."""
+        self._taker.shutdown(timeout_s)
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        self._node.destroy_node()
 
-    def _on_trigger(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        outcome = self._estop()  # the DampNoReply is out before anything is logged
+    def _on_trigger(self, _request: Trigger.Request, respond: Respond) -> None:
+        notes = self._shot()  # the DampNoReply first, in the thread that took the request
+        self._pool.submit(self._finish_trigger, notes, respond)
+
+    def _finish_trigger(self, notes: list[str], respond: Respond) -> None:
+        try:
+            outcome = self._estop(fired=notes)
+        except Exception as exc:  # never leave a caller without an answer (the machine's estop does not raise)
+            self._error(exc)
+            respond(Trigger.Response(success=False, message=f"e-stop failed in the node: {exc}"))
+            return
         self._report(self.service_name, outcome)
-        response.success = outcome.success
-        response.message = outcome.message
-        return response
+        respond(Trigger.Response(success=outcome.success, message=outcome.message))
 
     def _on_topic(self, msg: Bool) -> None:
         if msg.data:
-            # a topic has nobody to answer: register at once, the sequence runs in the machine's thread
-            outcome = self._estop(wait=False)
-            self._log.warn(f"E-STOP requested via /estop topic: {outcome.message}")
+            notes = self._shot()
+            self._pool.submit(self._finish_topic, notes)
+
+    def _finish_topic(self, notes: list[str]) -> None:
+        # a topic has nobody to answer: register at once, the sequence runs in the machine's thread
+        try:
+            outcome = self._estop(wait=False, fired=notes)
+        except Exception as exc:
+            self._error(exc)
+            return
+        self._log.warn(f"E-STOP requested via /estop topic: {outcome.message}")
+
+    def _error(self, exc: BaseException) -> None:
+        _log.error("e-stop endpoint: %s", exc, exc_info=exc)
+        self._log.error(f"e-stop endpoint error: {exc!r}")
 
     def _report(self, source: str, outcome: Outcome) -> None:
         if outcome.success:

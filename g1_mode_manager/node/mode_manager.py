@@ -32,6 +32,7 @@ from g1_mode_manager.node.lowstate_demand import LowStateDemand
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
+from g1_mode_manager.node.twist_cdr import twist_velocity
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
@@ -119,7 +120,7 @@ class ModeManagerNode(Node):
         if s.cmd_vel_stamped:
             self._streams.subscribe(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
         else:
-            self._streams.subscribe(Twist, "cmd_vel", self._on_cmd_vel)
+            self._streams.subscribe(Twist, "cmd_vel", self._on_cmd_vel, raw=True)  # decoded by twist_cdr
         self._streams.subscribe(JointState, f"{under_main}/arm_cmd", self._on_arm_cmd)
         self._streams.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd)
 
@@ -145,7 +146,7 @@ class ModeManagerNode(Node):
         self.machine.add_leave_listener(self._wake_workers)  # after the relays': exit damping is due now
         for worker in self._workers:
             worker.start()
-        self._estop = EstopEndpoint(self, self.machine.estop)
+        self._estop = EstopEndpoint(self, self.machine.estop_shot, self.machine.estop)
         self._estop.start()
         self._supervisor = PeriodicWorker("supervisor", s.supervise_rate_hz, self._supervise, self._worker_error)
         self._supervisor.start()
@@ -232,8 +233,8 @@ class ModeManagerNode(Node):
         return response
 
     # --- command streams -------------------------------------------------------------------------
-    def _on_cmd_vel(self, msg: Twist) -> None:
-        self._cmd_vel.submit(msg.linear.x, msg.linear.y, msg.angular.z)
+    def _on_cmd_vel(self, data: bytes) -> None:
+        self._cmd_vel.submit(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
         """issue 11: a command older than cmd_vel_timeout is dropped and counted (it would restart a
@@ -272,7 +273,9 @@ class ModeManagerNode(Node):
 
     def _mirror_sport_state(self) -> None:
         """Publish the newest rt/sportmodestate once (stamped with its receive time); a timer, not a
-        callback per sample: the robot may publish it at 500 Hz."""
+        callback per sample: the robot may publish it at 500 Hz. Nobody subscribed: nothing read or sent."""
+        if self._sport_pub.get_subscription_count() == 0:
+            return
         state = self._port.sport_state()
         if state is None:
             return

@@ -1,13 +1,15 @@
-"""Serve a few subscriptions from one thread of their own, through a wait set of just those.
+"""Serve a few subscriptions (and services) from one thread of their own, through a wait set of just those.
 
 rclpy's executors rebuild their wait set in Python on every wake (every subscription, timer,
 service, guard and publisher event handler of every node, through context managers): on this
-project's machine ~0.6-0.9 ms per /cmd_vel message, 6-9 % of a core at 100 Hz. Here the wait set
-holds only the command subscriptions and a stop guard; each wake costs a few C calls, one take per
-ready subscription, and the callback. Callbacks run one at a time in this thread: they must not
-block (the relays only store the command and wake their worker).
+project's machine ~0.6-0.9 ms per /cmd_vel message, 6-9 % of a core at 100 Hz, and a service request
+then waits for a hand-off to a pool thread (~1-2 ms). Here the wait set holds only the given
+subscriptions and services and a stop guard; each wake costs a few C calls, one take per ready entity,
+and the callback. Callbacks run one at a time in this thread: they must not block (the relays only
+store the command and wake their worker; a service callback hands its slow part to a thread of its
+own and answers from there through ``respond``).
 
-Uses rclpy's wait set and take calls as its executors do (rclpy 7.1, Jazzy).
+Uses rclpy's wait set, take and send-response calls as its executors do (rclpy 7.1, Jazzy).
 """
 
 from __future__ import annotations
@@ -21,33 +23,47 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from rclpy.service import Service
 from rclpy.subscription import Subscription
 
 _log = logging.getLogger(__name__)
 #: The thread looks at its stop flag at least this often (ns): a stop after SIGINT cannot use the guard.
-WAIT_PERIOD_NS = 100_000_000
+WAIT_PERIOD_NS = 250_000_000
+
+Respond = Callable[[Any], None]
 
 
 class StreamTaker:
-    """Subscriptions on ``node`` (never added to an executor), served by ``start()``'s thread."""
+    """Subscriptions and services on ``node`` (never added to an executor), served by ``start()``'s thread."""
 
     def __init__(self, node: Node, name: str = "stream_taker",
                  on_error: Callable[[BaseException], None] | None = None) -> None:  # fmt: skip
         self._node = node
         self._subs: list[Subscription] = []
+        self._services: list[tuple[Service, Callable[[Any, Respond], None]]] = []
         self._on_error = on_error
         self._stop = threading.Event()
         self._guard = node.create_guard_condition(lambda: None)
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
     def subscribe(self, msg_type: Any, topic: str, callback: Callable[[Any], None],
-                  qos: QoSProfile | int = 10) -> Subscription:  # fmt: skip
-        """Create a subscription served by this thread (before ``start()``)."""
+                  qos: QoSProfile | int = 10, *, raw: bool = False) -> Subscription:  # fmt: skip
+        """Create a subscription served by this thread (before ``start()``). ``raw``: the callback gets the
+        serialised message (CDR bytes) instead of a message object."""
         if self._thread.is_alive():
             raise RuntimeError("subscribe before start()")
-        sub = self._node.create_subscription(msg_type, topic, callback, qos)
+        sub = self._node.create_subscription(msg_type, topic, callback, qos, raw=raw)
         self._subs.append(sub)
         return sub
+
+    def serve(self, srv_type: Any, name: str, callback: Callable[[Any, Respond], None]) -> Service:
+        """Create a service served by this thread (before ``start()``): ``callback(request, respond)`` runs
+        here; ``respond(response)`` sends the answer, from any thread, once."""
+        if self._thread.is_alive():
+            raise RuntimeError("serve before start()")
+        service = self._node.create_service(srv_type, name, lambda _request, response: response)  # never called
+        self._services.append((service, callback))
+        return service
 
     def start(self) -> None:
         self._thread.start()
@@ -70,13 +86,20 @@ class StreamTaker:
         context = self._node.context
         try:
             with context.handle:
-                wait_set = _rclpy.WaitSet(len(self._subs), 1, 0, 0, 0, 0, context.handle)
+                wait_set = _rclpy.WaitSet(len(self._subs), 1, 0, 0, len(self._services), 0, context.handle)
             while not self._stop.is_set() and context.ok():
                 wait_set.clear_entities()
+                for service, _callback in self._services:
+                    wait_set.add_service(service.handle)
                 for sub in self._subs:
                     wait_set.add_subscription(sub.handle)
                 wait_set.add_guard_condition(self._guard.handle)
                 wait_set.wait(WAIT_PERIOD_NS)
+                if self._services:  # services first: they are the e-stop's
+                    ready = wait_set.get_ready_entities("service")
+                    for service, callback in self._services:
+                        if service.handle.pointer in ready:
+                            self._take_request(service, callback)
                 ready = wait_set.get_ready_entities("subscription")
                 for sub in self._subs:
                     if sub.handle.pointer in ready:
@@ -85,6 +108,24 @@ class StreamTaker:
             return
         except Exception as exc:  # reported, and the streams stop: never silently
             _log.exception("stream taker stopped")
+            if self._on_error is not None:
+                self._on_error(exc)
+
+    def _take_request(self, service: Service, callback: Callable[[Any, Respond], None]) -> None:
+        with service.handle:
+            request, header = service.handle.service_take_request(service.srv_type.Request)
+        if header is None:
+            return
+
+        def respond(response: Any) -> None:
+            try:
+                service.send_response(response, header)
+            except InvalidHandle:  # the node went away meanwhile: shutting down, nobody to answer
+                pass
+
+        try:
+            callback(request, respond)
+        except Exception as exc:  # a callback bug must not end the thread
             if self._on_error is not None:
                 self._on_error(exc)
 

@@ -6,11 +6,15 @@ The SDK's Python ``LocoClient`` drops error codes, lacks several calls and start
 
 from __future__ import annotations
 
+import json
 import math
 
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import SPEED_MODE_MAX_SPEED, BalanceMode, FsmId
 from g1_mode_manager.sdk.rpc_client import RpcClient, parse_number
+
+#: The e-stop's first packet's parameter, encoded once.
+_DAMP_TEXT = json.dumps({"data": int(FsmId.DAMP)})
 
 
 def _finite(name: str, **values: float) -> None:
@@ -83,7 +87,7 @@ class LocoClient(RpcClient):
 
     def damp_no_reply(self) -> None:
         """SetFsmId(1) flagged no-reply: sent at once, nothing awaited (the e-stop's first shot)."""
-        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, {"data": int(FsmId.DAMP)})
+        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, text=_DAMP_TEXT)  # json.dumps costs ~30 us here
 
     def zero_torque(self, *, timeout_s: float | None = None) -> None:
         self.set_fsm_id(FsmId.ZERO_TORQUE, timeout_s=timeout_s)

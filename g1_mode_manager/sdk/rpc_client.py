@@ -3,10 +3,14 @@
 The SDK's ``Client._Call`` reads one timeout shared by every thread (``SetTimeout``), waits up to twice
 that long (once for the topic match, once for the reply), never removes the future of a timed-out call
 (``RequestFutureQueue.Remove`` tests the builtin ``id``), and returns bare codes that callers drop.
-Here each call has its own deadline, ids are unique across threads, stale futures are removed, and
-every failure raises :class:`RobotError`. The SDK's transport is reused as is: its ``ClientStub``
-keys futures by request id under a lock and writes through a thread-safe DDS writer, so calls from
-several threads at once (an e-stop's damp while a select_mode waits) are safe.
+Here each call has its own deadline, ids are unique across threads, a call that gives up is
+forgotten, and every failure raises :class:`RobotError`. The SDK's ``ClientStub`` still creates the
+service's DDS topics and request writer (a thread-safe DDS writer, so calls from several threads at
+once, an e-stop's damp while a select_mode waits, are safe). Requests are written on that writer as
+ready-made bytes (``request_writer.py``), and replies are taken as bytes by a reader of our own on the
+SDK's response topic, which matches them to the waiting calls by request id under a lock
+(``response_reader.py``; the stub's reader no longer calls Python): ~0.1-0.2 ms of Python
+less per call on each side than the IDL (de)serialiser.
 """
 
 from __future__ import annotations
@@ -17,16 +21,8 @@ import time
 from collections.abc import Iterable
 from typing import Any
 
-from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
-    Request_,
-    RequestHeader_,
-    RequestIdentity_,
-    RequestLease_,
-    RequestPolicy_,
-)
 from unitree_sdk2py.rpc.client import Client
 from unitree_sdk2py.rpc.internal import RPC_API_ID_INTERNAL_API_VERSION
-from unitree_sdk2py.utils.future import FutureResult
 
 from g1_mode_manager.core.port import RobotError
 from g1_mode_manager.protocol.api_ids import (
@@ -35,9 +31,10 @@ from g1_mode_manager.protocol.api_ids import (
     ERR_CLIENT_API_NOT_REG,
     ERR_CLIENT_API_TIMEOUT,
     ERR_CLIENT_SEND,
-    ERR_UNKNOWN,
     OK,
 )
+from g1_mode_manager.sdk.request_writer import RequestWriter
+from g1_mode_manager.sdk.response_reader import ResponseReader
 
 
 class RpcClient(Client):
@@ -55,8 +52,9 @@ class RpcClient(Client):
             self._RegistApi(api_id, 0)
         # Used only by the SDK's own no-reply path (its wait for a topic match); never changed later.
         self.SetTimeout(self.timeout_s)
-        self._stub = self._ClientBase__stub  # the SDK's transport: writer, reader, futures by id
-        self._futures = getattr(self._stub, "_ClientStub__futureQueue", None)
+        self._stub = self._ClientBase__stub  # the SDK's transport: its topics and request writer
+        self._writer = RequestWriter(self._stub)
+        self._replies = ResponseReader(self._stub)
         self._id_lock = threading.Lock()
         self._last_id = 0
 
@@ -65,15 +63,6 @@ class RpcClient(Client):
         with self._id_lock:
             self._last_id = max(time.monotonic_ns(), self._last_id + 1)
             return self._last_id
-
-    def _request(self, api_id: int, parameter: str, *, noreply: bool) -> Request_:
-        header = RequestHeader_(RequestIdentity_(self._next_id(), api_id), RequestLease_(0),
-                                RequestPolicy_(0, noreply))  # fmt: skip
-        return Request_(header, parameter, [])
-
-    def _drop_future(self, request_id: int) -> None:
-        if self._futures is not None:
-            self._futures.Get(request_id)  # Get pops; the SDK's Remove never does
 
     def call(self, name: str, api_id: int, parameter: Any = None, *, timeout_s: float | None = None) -> str:
         """Send a request and wait for its reply; returns the reply's data string.
@@ -86,38 +75,35 @@ class RpcClient(Client):
         timeout = self.timeout_s if timeout_s is None else float(timeout_s)
         deadline = time.monotonic() + timeout
         text = "{}" if parameter is None else json.dumps(parameter)
-        request = self._request(api_id, text, noreply=False)
-        request_id = request.header.identity.id
-        future = self._stub.SendRequest(request, timeout)  # waits for a matched server up to timeout
-        if future is None:
+        request_id = self._next_id()
+        pending = self._replies.expect(request_id)  # before the write: the reply may come before write() returns
+        if not self._writer.write(request_id, api_id, text, False, timeout):  # waits for a matched server
+            self._replies.forget(request_id)
             raise RobotError(name, ERR_CLIENT_SEND, f"no {self.service!r} server matched within {timeout:.2f} s")
-        result = future.GetResult(max(0.0, deadline - time.monotonic()))
-        if result.code != FutureResult.FUTURE_SUCC:
-            self._drop_future(request_id)
-            if result.code == FutureResult.FUTUTE_ERR_TIMEOUT:
-                raise RobotError(name, ERR_CLIENT_API_TIMEOUT, f"no reply from {self.service!r} in {timeout:.2f} s")
-            raise RobotError(name, ERR_UNKNOWN, result.msg or "")
-        response = result.value
-        if response.header.identity.api_id != api_id:
-            raise RobotError(name, ERR_CLIENT_API_NOT_MATCH, f"reply for api {response.header.identity.api_id}")
-        code = int(response.header.status.code)
-        if code != OK:
-            raise RobotError(name, code, f"{self.service} api {api_id} {text}")
-        return response.data
+        reply = self._replies.wait(pending, max(0.0, deadline - time.monotonic()))
+        if reply is None:
+            self._replies.forget(request_id)
+            raise RobotError(name, ERR_CLIENT_API_TIMEOUT, f"no reply from {self.service!r} in {timeout:.2f} s")
+        if reply.api_id != api_id:
+            raise RobotError(name, ERR_CLIENT_API_NOT_MATCH, f"reply for api {reply.api_id}")
+        if reply.code != OK:
+            raise RobotError(name, reply.code, f"{self.service} api {api_id} {text}")
+        return reply.data
 
-    def call_no_reply(self, name: str, api_id: int, parameter: Any = None) -> None:
+    def call_no_reply(self, name: str, api_id: int, parameter: Any = None, *, text: str | None = None) -> None:
         """Send a request flagged no-reply (the server runs it and answers nothing): written at once.
 
         The SDK's own ``_CallNoReply`` first waits up to the client's timeout (1 s) for a matched server,
         polling every 0.1 s: an e-stop's first shot on a dead link sat there, in front of everything
         after it. Here nothing waits: with no server matched the request reaches nobody, and what
         follows (the e-stop's Damp with its own timeout) finds that out. Raises RobotError(3102) only
-        if the DDS write itself failed.
+        if the DDS write itself failed. ``text``: the parameter already JSON-encoded (the e-stop's, made once).
         """
-        text = "{}" if parameter is None else json.dumps(parameter)
+        if text is None:
+            text = "{}" if parameter is None else json.dumps(parameter)
         if api_id not in self._api_ids:
             raise RobotError(name, ERR_CLIENT_API_NOT_REG, f"api {api_id} not registered for {self.service!r}")
-        if not self._stub.Send(self._request(api_id, text, noreply=True), None):  # None: no wait for a match
+        if not self._writer.write(self._next_id(), api_id, text, True, None):  # None: no wait for a match
             raise RobotError(name, ERR_CLIENT_SEND, f"{self.service} api {api_id} {text} (no-reply)")
 
     def server_api_version(self, *, timeout_s: float | None = None) -> str:

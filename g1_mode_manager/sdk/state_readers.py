@@ -39,7 +39,7 @@ _ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 LATEST_ONLY_QOS: Final = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
 
 
-def _sdk_participant() -> Any:
+def sdk_participant() -> Any:
     from unitree_sdk2py.core.channel import ChannelFactory
 
     participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
@@ -57,7 +57,7 @@ class LatestSample(Generic[T]):
 
     def __init__(self, topic: str, msg_type: type, decode: Callable[[bytes], T],
                  on_sample: Callable[[T], None] | None = None) -> None:  # fmt: skip
-        participant = _sdk_participant()
+        participant = sdk_participant()
         self.topic = topic
         self._decode = decode
         self._lock = threading.Lock()

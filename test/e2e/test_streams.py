@@ -255,7 +255,10 @@ def test_g1ctl_drive_stops_publishing_without_keys_and_sub_dead_band_is_not_sent
     drained = threading.Thread(target=lambda: _drain(master), daemon=True)
     drained.start()
     try:
-        time.sleep(3.0)  # its ROS node discovers the mode manager
+        # its node has started and published /cmd_vel (a loaded machine can take seconds), then the mode
+        # manager's subscription matches it
+        assert wait_until(lambda: stack.ros.node.count_publishers("/cmd_vel") >= 1, 30.0), "g1ctl never published"
+        time.sleep(1.0)
         for _ in range(10):  # a held key, repeating
             os.write(master, b"w")
             time.sleep(0.05)

@@ -69,6 +69,9 @@ def test_robot_implements_the_port_and_writes_frames_fast(robot: UnitreeRobot) -
     assert isinstance(robot, RobotPort)
     assert robot._arm is not None and robot._arm._writer.fast
     assert robot._lowcmd is not None and robot._lowcmd._writer.fast
+    assert robot._loco is not None and robot._loco._writer.fast  # requests as ready-made bytes (request_writer.py)
+    assert robot._switcher is not None and robot._switcher._writer.fast
+    assert robot._loco._replies.fast and robot._switcher._replies.fast  # replies decoded with struct
 
 
 def test_every_loco_call_arrives_with_its_api_id_and_json(robot: UnitreeRobot, peer: Peer) -> None:
