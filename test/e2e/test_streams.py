@@ -25,7 +25,7 @@ from sensor_msgs.msg import JointState
 from g1_mode_manager.protocol import api_ids
 from support.mode_manager import start_mode_manager, wait_until
 from support.processes import ManagedProcess
-from support.sim_record import SimRecord, velocity_of
+from support.sim_record import SimRecord, states, velocity_of
 
 from .conftest import Stack
 
@@ -108,14 +108,18 @@ def _start_walking(stack: Stack) -> None:
 # --- lowcmd ------------------------------------------------------------------------------------------
 def test_leaving_low_level_leaves_the_robot_holding_a_damping_frame_for_idle_and_estop(recorded) -> None:
     stack, record = recorded()
+    # a robot-like service switch: on a G1 SelectMode and ReleaseMode take seconds, so "damped before the
+    # service came back" is decided by the robot's state, not by which of two topics' packets arrived first
+    stack.set_faults({"delay_s": {str(api_ids.MS_SELECT_MODE): 0.3, str(api_ids.MS_RELEASE_MODE): 0.3}})
     low = _publisher(stack, JointCommand, "/g1_mode_manager/lowcmd")
     stiff = JointCommand(name=["left_knee_joint", "right_knee_joint"], q=[0.5, 0.5], kp=[100.0, 100.0],
                          kd=[2.0, 2.0])
+    t_estop = 0.0
     for exit_to in ("idle", "estop"):
         assert stack.set_mode("low_level").success
         with publishing(lambda: low.publish(stiff), 200.0):  # a user stream that does not stop by itself
             assert wait_until(lambda: any(f["kp_max"] == 100.0 for f in _frames(record, "lowcmd")), 5.0)
-            t_exit = time.monotonic()
+            t_exit = t_estop = time.monotonic()
             r = stack.estop() if exit_to == "estop" else stack.set_mode("idle")
             t_reply = time.monotonic()
             assert r.success, r.message
@@ -131,10 +135,12 @@ def test_leaving_low_level_leaves_the_robot_holding_a_damping_frame_for_idle_and
         assert kps[-1] == 0.0  # the frame the motor drivers hold is a damping one
         after = [f["kp_max"] for f in received if f["t"] > cut]
         print(f"{exit_to}: {len(kps) - len(after)} frames before the gate closed, {len(after)} damping frames after")
-    damp_sent = [e["t"] for e in record.events() if e["k"] == "req" and e.get("api") == api_ids.LOCO_SET_FSM_ID]
-    select = [e["t"] for e in record.events() if e["k"] == "req" and e.get("api") == api_ids.MS_SELECT_MODE]
-    damping = [f["t"] for f in _frames(record, "lowcmd", damp_sent[0]) if f["ok"] and f["kp_max"] == 0.0]
-    assert damping and damping[0] < select[-1]  # e-stop: damped in debug mode before the service came back
+    # e-stop: the motor drivers held a damping frame (taken in debug mode) before the service came back
+    events = record.events(t_estop)
+    back = [e["t"] for e in states(events) if e["svc"]]
+    damping = [f["t"] for f in _frames(record, "lowcmd", t_estop) if f["ok"] and f["kp_max"] == 0.0]
+    assert back and damping, (back, damping)
+    assert damping[0] < back[0], f"first damping frame {damping[0] - back[0]:+.4f} s after the service came back"
 
 
 # --- arm_sdk ---------------------------------------------------------------------------------------
@@ -252,11 +258,14 @@ def test_g1ctl_drive_stops_publishing_without_keys_and_sub_dead_band_is_not_sent
     tool = subprocess.Popen([sys.executable, "-m", "g1_mode_manager.cli.main", "drive"], stdin=slave,
                             stdout=slave, stderr=slave, start_new_session=True)
     os.close(slave)
-    drained = threading.Thread(target=lambda: _drain(master), daemon=True)
+    output = bytearray()
+    drained = threading.Thread(target=lambda: _drain(master, output), daemon=True)
     drained.start()
     try:
-        # its node has started and published /cmd_vel (a loaded machine can take seconds), then the mode
-        # manager's subscription matches it
+        # its status line comes after it put the terminal in cbreak mode (which discards keys typed before),
+        # and its /cmd_vel publisher is in the graph (a loaded machine can take seconds for both); then a
+        # margin for the mode manager's subscription to match it
+        assert wait_until(lambda: b"\rvx " in bytes(output), 30.0), f"g1ctl never read keys: {bytes(output)!r}"
         assert wait_until(lambda: stack.ros.node.count_publishers("/cmd_vel") >= 1, 30.0), "g1ctl never published"
         time.sleep(1.0)
         for _ in range(10):  # a held key, repeating
@@ -285,9 +294,10 @@ def test_g1ctl_drive_stops_publishing_without_keys_and_sub_dead_band_is_not_sent
     assert len(sent) <= 1, f"{len(sent)} useless sub-threshold Moves"
 
 
-def _drain(fd: int) -> None:
+def _drain(fd: int, into: bytearray) -> None:
+    """Read a pty's output until it closes (so the tool never blocks on a full terminal)."""
     try:
-        while os.read(fd, 4096):
-            pass
+        while chunk := os.read(fd, 4096):
+            into.extend(chunk)
     except OSError:
         pass
