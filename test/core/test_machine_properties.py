@@ -198,6 +198,7 @@ TestMachineSequences = MachineSequences.TestCase
 # --- races: e-stops fired at random moments into transitions running in another thread ---------------
 RACE_ROUNDS = int(os.environ.get("G1_RACE_ROUNDS", "150"))
 RACE_PAIRS = [pair for pair in TABLE if pair[1] is not Mode.EMERGENCY]
+PINNED_PAIRS = [pair for pair in RACE_PAIRS if pair[1] is Mode.LOW_LEVEL and pair[0] is not Mode.LOW_LEVEL]
 
 
 def _run_in_thread(fn: Callable[[], Outcome], name: str) -> tuple[threading.Thread, list[Outcome]]:
@@ -229,8 +230,11 @@ def test_estop_at_random_moments_preempts_cleanly() -> None:
     rng = random.Random(20261122)
     tally: dict[str, int] = {}
     for round_ in range(RACE_ROUNDS):
-        source, target = rng.choice(RACE_PAIRS)
-        service = rng.choice([ACTIVE, RELEASED])
+        # every fifth round pins the race the random ones only hit by chance (rarely on a loaded machine):
+        # the e-stop arrives while the transition's ReleaseMode is inside the robot
+        pinned = round_ % 5 == 0
+        source, target = rng.choice(PINNED_PAIRS if pinned else RACE_PAIRS)
+        service = ACTIVE if pinned else rng.choice([ACTIVE, RELEASED])
         rig = make_rig(service, real_time=True, poll_interval_s=0.0005, release_timeout_s=2.0, select_timeout_s=2.0,
                        estop_timing=EstopTiming(total_s=2.0))
         rig.bring_to(source)
@@ -242,9 +246,16 @@ def test_estop_at_random_moments_preempts_cleanly() -> None:
         rig.machine.add_leave_listener(partial(_note_registration, rig, registered))
         context = f"round {round_}: {source.name}->{target.name}, robot {service!r}, lag {lag}"
 
+        hold = rig.robot.hold("release_mode") if pinned else None
         transition, transition_out = _run_in_thread(partial(rig.machine.request, target), "tr")
-        time.sleep(rng.uniform(0, 0.008))
+        if hold is not None:
+            assert hold.wait_entered(5.0), (context, "the transition never called ReleaseMode")
+            threading.Timer(rng.uniform(0, 0.008), hold.release).start()
+        else:
+            time.sleep(rng.uniform(0, 0.008))
         estop_start = len(rig.robot.calls)
+        unfinished = [c for c in rig.robot.calls if c.thread == "tr" and c.result == "pending"
+                      and c.name in ("select_mode", "release_mode")]
         estop = rig.machine.estop()
         transition.join(5)
 
@@ -269,7 +280,7 @@ def test_estop_at_random_moments_preempts_cleanly() -> None:
             tally["estop retried"] = tally.get("estop retried", 0) + 1
             retries = [rig.machine.estop() for _ in range(3)]
             assert any(o.success for o in retries), (context, retries)
-        if any(c.thread == "tr" and c.name in ("select_mode", "release_mode") for c in calls[estop_start:]):
+        if unfinished or any(c.thread == "tr" and c.name in ("select_mode", "release_mode") for c in calls[estop_start:]):
             tally["mode call in flight"] = tally.get("mode call in flight", 0) + 1
         assert rig.robot.damped and rig.robot.service, context
         assert any(c.name == "damp" and c.ok and c.service for c in rig.robot.calls[estop_start:]), context
