@@ -46,8 +46,9 @@ MODE_MACHINE_NOT_5: Final = "mode_machine_not_5"
 MOTORS_DISABLED: Final = "motors_disabled"
 
 _MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
-#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp): for the sim's record.
-FrameHook = Callable[[str, "str | None", float, float], None]
+#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp, the frame's crc field): for the sim's
+#: record (the crc finds the frame's receive time, see arrivals.py).
+FrameHook = Callable[[str, "str | None", float, float, int], None]
 
 
 class CommandRobot(Protocol):
@@ -98,7 +99,7 @@ class CommandIntake:
         else:
             self._ignore(LOWCMD, why)
         if self._on_frame is not None:
-            self._on_frame(LOWCMD, why, 0.0, float(np.nanmax(m[4])))
+            self._on_frame(LOWCMD, why, 0.0, float(np.nanmax(m[4])), int(msg.crc))
         return why
 
     def _check_lowcmd(self, msg: LowCmd_, m: np.ndarray) -> str | None:
@@ -125,7 +126,7 @@ class CommandIntake:
         else:
             self._ignore(ARM_SDK, why)
         if self._on_frame is not None:
-            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])))
+            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), int(msg.crc))
         return why
 
     def _check_arm_sdk(self, msg: LowCmd_, m: np.ndarray, weight: float) -> str | None:

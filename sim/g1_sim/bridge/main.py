@@ -188,7 +188,7 @@ class Bridge:
         self.publishers = StatePublishers()
         frame_hook = self._frame if self.record.enabled else None
         self.intake = CommandIntake(self.robot, on_frame=frame_hook)
-        self.subscribers = CommandSubscribers(self.intake)
+        self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock())
         self._params = p
 
@@ -214,15 +214,16 @@ class Bridge:
         self._record_state()
 
     # --- the robot's record ---------------------------------------------------------------------------
-    def _received(self, service: str, api_id: int, parameter: str, noreply: bool) -> None:
-        self.record.event("req", svc=service, api=api_id, p=parameter, noreply=noreply)
+    def _received(self, service: str, api_id: int, parameter: str, noreply: bool, at: float | None) -> None:
+        self.record.event("req", at=at, svc=service, api=api_id, p=parameter, noreply=noreply)
 
     def _handled(self, service: str, api_id: int, parameter: str, code: int) -> None:
         self.record.event("done", svc=service, api=api_id, p=parameter, code=code)
         self._record_state()
 
-    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float) -> None:
-        self.record.event("frame", topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max)
+    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, crc: int) -> None:
+        at = self.subscribers.arrival(topic, crc) if hasattr(self, "subscribers") else None
+        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max)
 
     def _record_state(self) -> None:
         robot = self.robot

@@ -34,10 +34,11 @@ class Recorder:
     def enabled(self) -> bool:
         return self._file is not None
 
-    def event(self, kind: str, **fields: Any) -> None:
+    def event(self, kind: str, at: float | None = None, **fields: Any) -> None:
+        """Record one event at ``at`` (a CLOCK_MONOTONIC receive time taken earlier) or now."""
         if self._file is None:
             return
-        line = json.dumps({"k": kind, "t": time.monotonic(), **fields}, separators=(",", ":"))
+        line = json.dumps({"k": kind, "t": time.monotonic() if at is None else at, **fields}, separators=(",", ":"))
         with self._lock:
             if self._file is not None:
                 self._file.write(line + "\n")

@@ -29,6 +29,7 @@ from typing import Any, Protocol
 from unitree_sdk2py.rpc.server import Server
 
 from g1_mode_manager.protocol import api_ids as api
+from g1_sim.bridge.arrivals import Arrivals, request_id, sdk_participant, sdk_reader_of
 from g1_sim.bridge.faults import DAMP_FAILURE_CODE, Faults
 
 Reply = tuple[int, str]
@@ -235,9 +236,10 @@ class RequestCounter:
             return {s: {str(k): [dict(r) for r in v] for k, v in sorted(c.items())} for s, c in self._recent.items()}
 
 
-#: on_received(service, api_id, parameter, noreply) when a request arrives; on_handled(service, api_id,
-#: parameter, code) once it was handled (after any injected delay). For the sim's record.
-Received = Callable[[str, int, str, bool], None]
+#: on_received(service, api_id, parameter, noreply, receive time) when a request arrives (the time Cyclone
+#: delivered it, see arrivals.py, or None: now); on_handled(service, api_id, parameter, code) once it was
+#: handled (after any injected delay). For the sim's record.
+Received = Callable[[str, int, str, bool, float | None], None]
 Handled = Callable[[str, int, str, int], None]
 
 
@@ -254,6 +256,7 @@ class SimServer(Server):
         self._on_handled = on_handled
         self._timers: list[threading.Timer] = []
         self._timers_lock = threading.Lock()
+        self._arrivals: Arrivals | None = None
         self._SetApiVersion(version)
         for api_id, handler in handlers.items():
             self._RegistHandler(api_id, self._with_error_fault(api_id, handler), False)
@@ -272,6 +275,9 @@ class SimServer(Server):
         # The SDK's Server.Start installs its private dispatcher; ours wraps it (faults, counting).
         self._SetServerRequestHandler(self._on_request)
         self._Start(enable_prio_queue)
+        if self._on_received is not None:  # the record wants receive times: stamp where Cyclone delivers
+            channel = self._ServerBase__serverStub._ServerStub__recvChannel  # type: ignore[attr-defined]
+            self._arrivals = Arrivals(sdk_participant(), sdk_reader_of(channel), request_id, window=32)
 
     def _dispatch(self, request: Any) -> None:
         self._Server__ServerRequestHandler(request)  # type: ignore[attr-defined]
@@ -280,7 +286,8 @@ class SimServer(Server):
         api_id = int(request.header.identity.api_id)
         self._counter.add(self.GetName(), api_id, str(request.parameter))
         if self._on_received is not None:
-            self._on_received(self.GetName(), api_id, str(request.parameter), bool(request.header.policy.noreply))
+            t = self._arrivals.pop(int(request.header.identity.id)) if self._arrivals is not None else None
+            self._on_received(self.GetName(), api_id, str(request.parameter), bool(request.header.policy.noreply), t)
         if self._faults.drops(api_id):
             return
         delay = self._faults.delay_s(api_id)

@@ -13,6 +13,7 @@ from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
+from g1_sim.bridge.arrivals import Arrivals, last_uint32, sdk_participant, sdk_reader_of
 from g1_sim.bridge.commands import CommandIntake
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
 
@@ -90,12 +91,22 @@ def _matched_readers(publisher: ChannelPublisher) -> int:
 class CommandSubscribers:
     """Readers of rt/lowcmd and rt/arm_sdk, feeding a CommandIntake."""
 
-    def __init__(self, intake: CommandIntake) -> None:
+    def __init__(self, intake: CommandIntake, *, stamp_arrivals: bool = False) -> None:
         self._subs: list[Any] = []
+        self._arrivals: dict[str, Arrivals] = {}
         for topic, handler in ((topics.LOWCMD, intake.on_lowcmd), (topics.ARM_SDK, intake.on_arm_sdk)):
             sub = ChannelSubscriber(topic, LowCmd_)
             sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN)
             self._subs.append(sub)
+            if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
+                reader = sdk_reader_of(sub._ChannelSubscriber__channel)
+                stamps = Arrivals(sdk_participant(), reader, last_uint32, window=2 * COMMAND_QUEUE_LEN)
+                self._arrivals[topic.removeprefix("rt/")] = stamps
+
+    def arrival(self, topic: str, crc: int) -> float | None:
+        """When the frame with this crc reached the process (``topic`` as the record names it), or None."""
+        arrivals = self._arrivals.get(topic)
+        return arrivals.pop(crc) if arrivals is not None else None
 
 
 def _logged(topic: str, handler: Callable[[LowCmd_], object]) -> Callable[[LowCmd_], None]:
