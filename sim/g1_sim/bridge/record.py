@@ -3,10 +3,11 @@
 One JSON object per line, written as it happens, with ``t`` = CLOCK_MONOTONIC (shared by every process
 of the machine, so a test can compare it with the moment it sent something). Kinds:
 
-* ``req``: an RPC request on arrival: ``svc``, ``api``, ``p`` (JSON parameter), ``noreply``.
+* ``req``: an RPC request on arrival: ``svc``, ``api``, ``p`` (JSON parameter), ``noreply``. ``t`` is when
+  the sim's Cyclone delivered it (see arrivals.py), so lines are not always in ``t`` order.
 * ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
 * ``frame``: an rt/lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
-  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded).
+  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded); ``t`` as for ``req``.
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
   ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``.
 * ``reset``: the sim was reset to its boot state (a sim-only status call).
