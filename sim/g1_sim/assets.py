@@ -9,7 +9,7 @@ from pathlib import Path
 #: Overrides the default location, e.g. for a checkout whose venv lives elsewhere.
 ASSETS_ENV = "G1_SIM_ASSETS"
 SCENE_XML = Path("unitree_g1") / "scene.xml"
-POLICY_ONNX = Path("policy") / "fastsac_g1_29dof.onnx"
+POLICY_ONNX = Path("policy") / "ppo_g1_29dof.onnx"
 
 
 class AssetsMissingError(FileNotFoundError):

@@ -1,4 +1,4 @@
-"""The pretrained 29-dof G1 locomotion policy (holosoma FastSAC, ONNX): observation in, joint targets out.
+"""A pretrained 29-dof G1 locomotion policy (holosoma PPO or FastSAC, ONNX): observation in, joint targets out.
 
 Layout verified against holosoma-inference 0.1.3 (``policies/base.py``, ``policies/locomotion.py``,
 ``config/config_values/observation.py``): the terms of ``actor_obs`` are concatenated in sorted name
