@@ -28,6 +28,8 @@ RATE_HZ: Final = 50
 MOVE_S: Final = 6.0
 HOLD_S: Final = 1.0
 RAMP_OUT_S: Final = 3.0
+#: Watched after the program ends (weight 0): a robot that lets go of a lean falls within ~1.5 s.
+SETTLE_S: Final = 3.0
 #: A case counts as a fall when the pelvis drops below this (it stands at ~0.76 m, walks at ~0.72 m).
 FALL_Z_M: Final = 0.6
 
@@ -134,7 +136,7 @@ def run_case(pose: dict[int, float], case: Case) -> tuple[bool, float]:
     sim = SimG1()
     enter(sim, case)
     lowest = play_reference(sim, pose)
-    sim.step(round(1.0 / sim.dt))
+    sim.step(round(SETTLE_S / sim.dt))
     lowest = min(lowest, float(sim.base_pose().position[2]))
     return lowest < FALL_Z_M or sim.fallen, lowest
 
