@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+from typing import Any
 
 from cyclonedds.idl._typesupport.DDS import XTypes
 
@@ -87,3 +88,13 @@ def init_channels(domain_id: int, interface: str, *, serve_multicast: bool = Fal
         sdk_channel.ChannelConfigHasInterface = original
     if not ok:
         raise RuntimeError(f"cannot create the Unitree SDK2 DDS domain {domain_id} on interface {interface!r}")
+
+
+def sdk_participant() -> Any:
+    """The DDS participant of the SDK's process-wide domain (private in the SDK: no accessor)."""
+    from unitree_sdk2py.core.channel import ChannelFactory
+
+    participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
+    if participant is None:
+        raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
+    return participant

@@ -28,7 +28,7 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     ResponseStatus_,
 )
 
-from g1_mode_manager.sdk.state_readers import sdk_participant
+from g1_mode_manager.protocol.dds import sdk_participant
 
 _log = logging.getLogger(__name__)
 _ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any

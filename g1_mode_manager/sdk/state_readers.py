@@ -26,6 +26,7 @@ from cyclonedds.topic import Topic
 
 from g1_mode_manager.core.port import SportState
 from g1_mode_manager.protocol import topics
+from g1_mode_manager.protocol.dds import sdk_participant
 from g1_mode_manager.protocol.idl import LowState_, SportModeState_
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
@@ -37,15 +38,6 @@ _ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 #: Cyclone keeps only the newest sample; best effort: a lost state sample is superseded 2 ms later, and
 #: acknowledging 500 samples/s would cost CPU for nothing.
 LATEST_ONLY_QOS: Final = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
-
-
-def sdk_participant() -> Any:
-    from unitree_sdk2py.core.channel import ChannelFactory
-
-    participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
-    if participant is None:
-        raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
-    return participant
 
 
 class LatestSample(Generic[T]):

@@ -29,6 +29,8 @@ from cyclonedds._clayer import ddspy_take
 from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
 from cyclonedds.sub import DataReader
 
+from g1_mode_manager.protocol.dds import sdk_participant
+
 _ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 _TAKE_MAX: Final = 16
 #: Listeners Cyclone may still call are kept for the life of the process (freeing one can crash a DDS thread).
@@ -51,13 +53,6 @@ def last_uint32(raw: bytes) -> int | None:
     return struct.unpack_from("<I" if raw[1] & 1 else ">I", raw, len(raw) - 4)[0]
 
 
-def sdk_participant() -> Any:
-    """The SDK's DDS participant (private in the SDK: no accessor)."""
-    from unitree_sdk2py.core.channel import ChannelFactory
-
-    return type(ChannelFactory())._ChannelFactory__participant
-
-
 def sdk_reader_of(channel: Any) -> Any:
     """The cyclonedds DataReader behind an SDK channel (private in the SDK: no accessor)."""
     return channel._Channel__reader._Reader__reader
@@ -66,13 +61,14 @@ def sdk_reader_of(channel: Any) -> Any:
 class Arrivals:
     """Receive times of one topic's samples, noted in Cyclone's receive thread, popped by key in order."""
 
-    def __init__(self, participant: Any, like: Any, key: Key, window: int) -> None:
+    def __init__(self, like: Any, key: Key, window: int) -> None:
+        """A reader like ``like`` (an SDK reader: same topic and QoS, on the SDK's participant)."""
         self._key = key
         self._lock = threading.Lock()
         self._stamps: deque[tuple[int, float]] = deque(maxlen=window)
         self._listener = Listener(on_data_available=self._on_data)
         _NEVER_FREED.append(self._listener)
-        self._reader = DataReader(participant, like.topic, like.get_qos(), self._listener)
+        self._reader = DataReader(sdk_participant(), like.topic, like.get_qos(), self._listener)
 
     def pop(self, key: int) -> float | None:
         """The receive time of the oldest kept sample with this key (older ones are dropped), or None."""

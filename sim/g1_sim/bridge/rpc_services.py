@@ -29,7 +29,7 @@ from typing import Any, Protocol
 from unitree_sdk2py.rpc.server import Server
 
 from g1_mode_manager.protocol import api_ids as api
-from g1_sim.bridge.arrivals import Arrivals, request_id, sdk_participant, sdk_reader_of
+from g1_sim.bridge.arrivals import Arrivals, request_id, sdk_reader_of
 from g1_sim.bridge.faults import DAMP_FAILURE_CODE, Faults
 
 Reply = tuple[int, str]
@@ -277,7 +277,7 @@ class SimServer(Server):
         self._Start(enable_prio_queue)
         if self._on_received is not None:  # the record wants receive times: stamp where Cyclone delivers
             channel = self._ServerBase__serverStub._ServerStub__recvChannel  # type: ignore[attr-defined]
-            self._arrivals = Arrivals(sdk_participant(), sdk_reader_of(channel), request_id, window=32)
+            self._arrivals = Arrivals(sdk_reader_of(channel), request_id, window=32)
 
     def _dispatch(self, request: Any) -> None:
         self._Server__ServerRequestHandler(request)  # type: ignore[attr-defined]

@@ -13,7 +13,7 @@ from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
-from g1_sim.bridge.arrivals import Arrivals, last_uint32, sdk_participant, sdk_reader_of
+from g1_sim.bridge.arrivals import Arrivals, last_uint32, sdk_reader_of
 from g1_sim.bridge.commands import CommandIntake
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
 
@@ -100,7 +100,7 @@ class CommandSubscribers:
             self._subs.append(sub)
             if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
                 reader = sdk_reader_of(sub._ChannelSubscriber__channel)
-                stamps = Arrivals(sdk_participant(), reader, last_uint32, window=2 * COMMAND_QUEUE_LEN)
+                stamps = Arrivals(reader, last_uint32, window=2 * COMMAND_QUEUE_LEN)
                 self._arrivals[topic.removeprefix("rt/")] = stamps
 
     def arrival(self, topic: str, crc: int) -> float | None:
