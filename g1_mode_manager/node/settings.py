@@ -83,7 +83,8 @@ _DESCRIPTIONS: dict[str, str] = {
     "cmd_vel_timeout": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
     "cmd_vel_rate_hz": "Keep-alive rate of a steady Move, Hz (a new /cmd_vel is sent at once, a ramp steps at 20 Hz, "
     "the watchdog has its own deadline).",
-    "cmd_vel_max_rate_hz": "At most this many Moves per second reach the robot, whatever the /cmd_vel rate, Hz.",
+    "cmd_vel_max_rate_hz": "At most this many Moves per second reach the robot (two may go back to back), whatever "
+    "the /cmd_vel rate, Hz.",
     "move_duration_s": "Lease of each Move (at most 2 s): the robot stops by itself if no newer Move arrives, s. "
     "The real robot ignores velocities below about 0.1; such commands are sent as one StopMove.",
     "max_vx": "Clamp of forward velocity, m/s.",

@@ -228,6 +228,29 @@ def test_sender_thread_caps_the_move_rate(events) -> None:
     assert 1 <= len(moves) <= elapsed * 20.0 + 2
 
 
+def test_a_new_command_right_after_a_keep_alive_goes_at_once_and_the_cap_holds_over_time(events, clock) -> None:
+    """The Move budget is a token bucket of MOVE_BURST refilled at max_rate_hz: a keep-alive does not hold
+    back the next new command, and back-to-back Moves beyond the burst wait for the budget."""
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock, timeout_s=100.0, max_rate_hz=50.0)
+    relay.submit(0.1, 0.0, 0.0)
+    relay.step()
+    assert len(_moves(port)) == 1  # a Move (say, a keep-alive) just went out
+    assert relay._budget_wait() == 0.0  # a new command now is not held back
+    relay.submit(0.05, 0.0, 0.0)
+    relay.step()
+    assert len(_moves(port)) == 2
+    assert relay._budget_wait() == pytest.approx(1.0 / 50.0)  # the burst is spent: the next waits 20 ms
+    clock.t += 0.01
+    assert relay._budget_wait() == pytest.approx(0.01)
+    clock.t += 0.01
+    assert relay._budget_wait() == 0.0
+    clock.t += 10.0  # a long pause refills no more than the burst
+    relay._spend()
+    relay._spend()
+    assert relay._budget_wait() == pytest.approx(1.0 / 50.0)
+
+
 def test_ramp_steps_every_50_ms_a_steady_move_at_the_keep_alive_and_the_watchdog_at_its_deadline(events,
                                                                                                clock) -> None:
     """rate_hz 10 (the default): while the limiter ramps the sender steps every 50 ms; once the robot runs the
