@@ -2,8 +2,10 @@
 the raw SDK's own figure from the same run.
 
 Everything runs on loopback on domains of its own. "Received" is the sim's own record (``--record``:
-every request stamped with CLOCK_MONOTONIC when its server thread takes it); that clock is shared by
+every request stamped with CLOCK_MONOTONIC where the sim's Cyclone delivers it); that clock is shared by
 all processes of the machine, so "sent" (here) and "received by the robot" (there) compare directly.
+The goals' raw references are taken right before each sample they judge (interleaved), so that both
+see the same moments of the machine.
 Node CPU is the node process's own utime + stime from /proc (robust to other load on the machine).
 Prints a table and, last, one ``SUMMARY key=value ...`` line; not part of the test pass/fail.
 """
@@ -231,11 +233,13 @@ def stop_node(bench: Bench, node) -> None:
     bench.ros.wait_service_gone(f"{NODE}/set_mode")
 
 
-def estop_latency(bench: Bench, sim: Sim, samples: int, case: str) -> tuple[Stats, Stats]:
+def estop_latency(bench: Bench, sim: Sim, samples: int, case: str, raw_per_sample: int = 0) -> tuple[Stats, Stats, Stats]:
     """Per sample a fresh node (EMERGENCY is final), then the e-stop under ``case``:
     'plain' (HIGH_LEVEL), 'select' (a SelectMode held by the sim in flight) or 'flood' (walking, /cmd_vel
-    at 1 kHz from two publishers)."""
-    to_robot, to_reply = [], []
+    at 1 kHz from two publishers). With ``raw_per_sample``, that many raw SDK RPC round trips (GetFsmId,
+    Unitree's stock client) right before each e-stop: the reference measured at the same moments of the
+    machine (a fresh node beside the sim, the robot in the same state), returned third."""
+    to_robot, to_reply, raw = [], [], []
     for _ in range(samples):
         if case == "flood":
             sim.reset()  # the last sample's e-stop dropped the robot; walking starts from standing
@@ -248,6 +252,7 @@ def estop_latency(bench: Bench, sim: Sim, samples: int, case: str) -> tuple[Stat
                 bench.set_mode_in_background("high_level")
                 assert sim.first_request(api_ids.MS_SELECT_MODE, before, 5.0) is not None
             client = bench.estop_client()
+            raw += stock_rpc_round_trips(raw_per_sample)
             if case == "flood":
                 flood = Flood(bench, 1000.0, 0.3).__enter__()
                 time.sleep(0.5)
@@ -267,17 +272,30 @@ def estop_latency(bench: Bench, sim: Sim, samples: int, case: str) -> tuple[Stat
             stop_node(bench, node)
             if client is not None:
                 bench.ros.node.destroy_client(client)
-    return Stats(to_robot), Stats(to_reply)
+    return Stats(to_robot), Stats(to_reply), Stats(raw)
 
 
-def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = None) -> Stats:
+def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = None,
+                    raw_per_sample: int = 0) -> tuple[Stats, Stats]:  # fmt: skip
     """Publish a new vx; time until the robot receives a SetVelocity carrying it. With a flood running,
-    the flood itself switches to the new value at t0 (two publishers at 1 kHz, latest wins)."""
+    the flood itself switches to the new value at t0 (two publishers at 1 kHz, latest wins). With
+    ``raw_per_sample``, that many raw Move round trips (the stock client's SetVelocity, at a vx the node
+    never sends) right before each sample: the reference at the same moments, returned second."""
     from geometry_msgs.msg import Twist
 
     pub = bench.publisher(Twist, "/cmd_vel")
-    out = []
+    out: list[float] = []
+    raw: list[float] = []
+    if flood is None:  # walking at the samples' speed first: each sample is then within one ramp step
+        warm = Twist()
+        warm.linear.x = 0.21
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 5.0 and not any(
+                abs(velocity_of(e)[0] - 0.21) < 1e-6 for e in requests(sim.events(t0), api_ids.LOCO_SET_VELOCITY)):
+            pub.publish(warm)
+            time.sleep(0.03)
     for i in range(samples):
+        raw += stock_move_round_trips(raw_per_sample)
         vx = round(0.20 + 0.01 * (i % 2), 2)  # alternate: each value differs from the last, within one ramp step
         msg = Twist()
         msg.linear.x = vx
@@ -294,10 +312,59 @@ def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = 
             if flood is None:
                 pub.publish(msg)
             time.sleep(0.03)
-    return Stats(out)
+    return Stats(out), Stats(raw)
 
 
 _RAW: dict = {}  # SDK clients must never be collected
+#: Raw round trips right before each e-stop / cmd_vel sample: the goals' references are measured at the
+#: same moments of the machine as what they judge (on a shared VM, host steal comes and goes by the
+#: second; a reference taken a minute apart compares two different machines).
+RAW_PER_ESTOP = 10
+RAW_PER_CMD_VEL = 2
+
+
+def stock_client():
+    """Unitree's stock G1 LocoClient, made once."""
+    from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient as StockLocoClient
+
+    stock = _RAW.get("stock")
+    if stock is None:
+        stock = _RAW["stock"] = StockLocoClient()
+        stock.SetTimeout(1.0)
+        stock.Init()
+        # discovery: the first calls of a new client can be lost before its readers match
+        assert wait_until(lambda: stock._Call(api_ids.LOCO_GET_FSM_ID, "{}")[0] == 0, 10.0), "stock client: no answer"
+    return stock
+
+
+def _timed_calls(name: str, call: Callable[[], int], samples: int) -> list[float]:
+    """Round trips of ``call`` (returns the SDK's code), 5 ms apart, in seconds; a call that fails is
+    reported, not counted (a 1 s timeout would inflate the reference)."""
+    out = []
+    for _ in range(samples):
+        t0 = time.monotonic()
+        code = call()
+        if code == 0:
+            out.append(time.monotonic() - t0)
+        else:
+            print(f"raw {name} failed: code {code}", file=sys.stderr)
+        time.sleep(0.005)
+    return out
+
+
+def stock_rpc_round_trips(samples: int) -> list[float]:
+    """GetFsmId round trips through the stock client."""
+    stock = stock_client()
+    return _timed_calls("GetFsmId", lambda: stock._Call(api_ids.LOCO_GET_FSM_ID, "{}")[0], samples)
+
+
+RAW_MOVE_VX = 0.25  # never one of the node's values in cmd_vel_latency (0.20, 0.21)
+
+
+def stock_move_round_trips(samples: int) -> list[float]:
+    """SetVelocity round trips through the stock client."""
+    stock = stock_client()
+    return _timed_calls("SetVelocity", lambda: stock.SetVelocity(RAW_MOVE_VX, 0.0, 0.0, 1.0), samples)
 
 
 def raw_round_trips(samples: int) -> dict[str, tuple[Stats, Stats]]:
@@ -305,17 +372,11 @@ def raw_round_trips(samples: int) -> dict[str, tuple[Stats, Stats]]:
     Unitree's stock SDK client (``unitree_sdk2py.g1.loco.g1_loco_client.LocoClient``: the SDK's own
     latency, the goals' reference) and through this project's client (``sdk/loco_client.py``: ready-made
     request bytes, per-call deadlines), interleaved so that both see the same moments of the machine."""
-    from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient as StockLocoClient
-
     from g1_mode_manager.sdk.loco_client import LocoClient
 
     ours = _RAW.setdefault("loco", LocoClient(1.0))
     ours.wait_ready(5.0)
-    stock = _RAW.get("stock")
-    if stock is None:
-        stock = _RAW["stock"] = StockLocoClient()
-        stock.SetTimeout(1.0)
-        stock.Init()
+    stock = stock_client()
     calls = {
         "stock": (lambda: stock._Call(api_ids.LOCO_GET_FSM_ID, "{}"), lambda: stock.SetVelocity(0.2, 0.0, 0.0, 1.0)),
         "ours": (ours.get_fsm_id, lambda: ours.set_velocity(0.2, 0.0, 0.0, 1.0)),
@@ -330,6 +391,18 @@ def raw_round_trips(samples: int) -> dict[str, tuple[Stats, Stats]]:
                 time.sleep(0.005)
     ours.stop_move()
     return {k: (Stats(rpc), Stats(move)) for k, (rpc, move) in times.items()}
+
+
+def cpu_times() -> list[int]:
+    """The machine's CPU time counters (/proc/stat "cpu" line: user nice system idle iowait irq softirq
+    steal ...), in ticks."""
+    return [int(v) for v in Path("/proc/stat").read_text().splitlines()[0].split()[1:]]
+
+
+def steal_percent(start: list[int], end: list[int]) -> float:
+    """Share of the machine's CPU time the hypervisor gave to others between two ``cpu_times()``."""
+    delta = [b - a for a, b in zip(start, end, strict=True)]
+    return 100.0 * delta[7] / max(1, sum(delta[:8]))
 
 
 def cpu_percent(pid: int, seconds: float, during: Callable[[], None] | None = None) -> float:
@@ -405,7 +478,8 @@ def cpu_rows(bench: Bench, seconds: float) -> list[tuple[str, float]]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--samples", type=int, default=20, help="e-stop samples per case (each starts a node)")
+    parser.add_argument("--samples", type=int, default=100,
+                        help="e-stop samples (each starts a node); the flood and SelectMode cases take 1/20 (>= 5)")
     parser.add_argument("--cpu-seconds", type=float, default=10.0, help="length of each CPU measurement")
     args = parser.parse_args(argv)
     from g1_mode_manager.protocol.dds import init_channels
@@ -413,42 +487,43 @@ def main(argv: list[str] | None = None) -> int:
     init_channels(SDK_DOMAIN, "lo")
     rows: list[tuple[str, str]] = []
     summary: dict[str, float] = {}
+    cpu_start = cpu_times()
     ros = RosClient("bench")
     bench = Bench(ros)
     sim = Sim()
     try:
-        robot, reply = estop_latency(bench, sim, args.samples, "plain")
-        rows += [("~/estop call -> Damp received by the robot", robot.text()),
+        robot, reply, raw_rpc = estop_latency(bench, sim, args.samples, "plain", RAW_PER_ESTOP)
+        rows += [("raw SDK RPC (GetFsmId) round trip, beside the e-stop samples", raw_rpc.text()),
+                 ("~/estop call -> Damp received by the robot", robot.text()),
                  ("~/estop call -> service reply (robot verified damped)", reply.text())]
-        summary.update(estop_damp_p99_ms=robot.p99())
-        few = max(3, args.samples // 4)
-        robot, _ = estop_latency(bench, sim, few, "flood")
+        summary.update(estop_damp_p99_ms=robot.p99(), raw_rpc_p99_ms=raw_rpc.p99())
+        few = max(5, args.samples // 20)
+        robot, _, _ = estop_latency(bench, sim, few, "flood")
         rows.append(("~/estop during /cmd_vel 2 x 1 kHz -> Damp received", robot.text()))
 
         sim.reset()
         node = fresh_node(bench, walk=True)
         try:
-            plain = cmd_vel_latency(bench, sim, 100)
-            rows.append(("/cmd_vel publish -> Move received", plain.text()))
-            summary.update(cmd_vel_median_ms=plain.median(), cmd_vel_p99_ms=plain.p99())
+            plain, raw_move = cmd_vel_latency(bench, sim, 100, raw_per_sample=RAW_PER_CMD_VEL)
+            rows += [("raw SDK Move (SetVelocity) round trip, beside the cmd_vel samples", raw_move.text()),
+                     ("/cmd_vel publish -> Move received", plain.text())]
+            summary.update(cmd_vel_median_ms=plain.median(), cmd_vel_p99_ms=plain.p99(),
+                           raw_move_median_ms=raw_move.median(), raw_move_p99_ms=raw_move.p99())
             with Flood(bench, 1000.0, 0.2) as flood:
-                flooded = cmd_vel_latency(bench, sim, 50, flood)
+                flooded, _ = cmd_vel_latency(bench, sim, 50, flood)
             rows.append((f"/cmd_vel 2 x {flood.rate_hz:.0f} Hz -> new value's Move received", flooded.text()))
             time.sleep(1.0)  # the node's watchdog stops the robot; it stays in walk mode (fsm 500): Moves pass
             raw = raw_round_trips(200)
-            raw_rpc, raw_move = raw["stock"]
-            rows[:0] = [("raw SDK RPC (GetFsmId) round trip, this run", raw_rpc.text()),
-                        ("raw SDK Move (SetVelocity) round trip, this run", raw_move.text()),
-                        ("  the same through this project's client: RPC", raw["ours"][0].text()),
-                        ("  the same through this project's client: Move", raw["ours"][1].text())]
-            summary.update(raw_rpc_p99_ms=raw_rpc.p99(), raw_move_median_ms=raw_move.median(),
-                           raw_move_p99_ms=raw_move.p99())
+            rows += [("raw SDK RPC (GetFsmId), 200 in a row, robot walking", raw["stock"][0].text()),
+                     ("raw SDK Move (SetVelocity), 200 in a row, robot walking", raw["stock"][1].text()),
+                     ("  the same through this project's client: RPC", raw["ours"][0].text()),
+                     ("  the same through this project's client: Move", raw["ours"][1].text())]
         finally:
             stop_node(bench, node)
         sim.stop()
 
         sim = Sim(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
-        robot, reply = estop_latency(bench, sim, few, "select")
+        robot, reply, _ = estop_latency(bench, sim, few, "select")
         rows += [("~/estop during a SelectMode held 2 s -> Damp received", robot.text()),
                  ("~/estop during a SelectMode held 2 s -> reply (after re-select)", reply.text())]
         node = fresh_node(bench, "low_level")
@@ -484,7 +559,8 @@ def main(argv: list[str] | None = None) -> int:
                          capture_output=True, text=True).stdout.strip()
     load = os.getloadavg()[0]
     print(f"\nmachine: {platform.node()} | {cpu} | {os.cpu_count()} cores | Python {platform.python_version()} | "
-          f"load average {load:.2f} at the end")
+          f"load average {load:.2f} at the end | hypervisor steal {steal_percent(cpu_start, cpu_times()):.1f} % of the "
+          "CPU time during the run")
     width = max(len(r[0]) for r in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}")
