@@ -194,6 +194,7 @@ class SimG1:
                     self._tick()
                 self._loco.arm_weight = self._arm.weight
                 self._stance.balancing = self._arm.weight > 0.0 or self._tasks.active
+                self._stance.upper_weight = self._arm.weight
                 self._stance.upper = self._tasks.command
                 tau = self._ctrl.torques(self._s)
                 if self._arm.weight > 0.0 and self._balanced():

@@ -162,12 +162,15 @@ class StanceController:
     ``bench/arm_balance.py``: without it, arms raised forward at arm_sdk's kp 60 bend the waist and the
     robot tips over its toes. The servo runs only while ``balancing`` (the firmware sets it while arm_sdk
     moves the upper body): the plain hold stands still without it, and at straight knees (HighStand)
-    the servo set up a slow rocking of its own.
+    the servo set up a slow rocking of its own. The lean also follows the centre of mass's velocity at once
+    (``com_damping``, rad per m/s): the integrator alone let the body rock at ~1 Hz under a soft arm_sdk
+    waist, and a lean frozen mid-swing when the weight reached 0 tipped it over backwards (arms overhead,
+    fsm 4 and 706); with it the grid's stance cases hold for com_gain 1-3.
     """
 
     def __init__(self, g1: G1Model, *, kp: np.ndarray = STANCE_KP, kd: np.ndarray = STANCE_KD,
                  rate: float = 0.5, integral_per_s: float = 1.0, integral_share: float = 0.3,
-                 com_gain: float = 2.0, lean_limit: float = 0.25, lead_s: float = 0.8) -> None:
+                 com_gain: float = 2.0, lean_limit: float = 0.25, lead_s: float = 0.8, com_damping: float = 0.15) -> None:
         self.poses = g1.stand_poses
         self.kp = kp
         self.kd = kd
@@ -183,8 +186,13 @@ class StanceController:
         self.com_gain = com_gain
         self.lead_s = lead_s
         self.lean_limit = lean_limit
+        self.com_damping = com_damping
+        self._com_velocity = np.zeros(2)
         self.lean = np.zeros(2)  # (forward, sideways) lean of the legs about the ankles, rad
         self.balancing = False
+        #: rt/arm_sdk's weight on motors 12..28: their integral term winds only as far as the hold is in charge
+        #: (else it winds up against the user's PD and throws the upper body when the weight ramps out).
+        self.upper_weight = 0.0
         #: A built-in arm motion (arm tasks): targets of motors 12..28 and how much they replace the hold's.
         self.upper: tuple[np.ndarray, float] | None = None
         self._feet = [g1.model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
@@ -206,6 +214,8 @@ class StanceController:
         err = com - 0.5 * (d.xpos[self._feet[0]][:2] + d.xpos[self._feet[1]][:2])
         heading = d.xmat[self._pelvis].reshape(3, 3)[:2, 0]
         c, si = heading / max(float(np.linalg.norm(heading)), 1e-9)
+        v = d.subtree_linvel[self._pelvis][:2]
+        self._com_velocity = np.array([c * v[0] + si * v[1], -si * v[0] + c * v[1]])
         return np.array([c * err[0] + si * err[1] - self.poses.com_ahead, -si * err[0] + c * err[1]])
 
     def goal(self) -> np.ndarray:
@@ -215,18 +225,24 @@ class StanceController:
     def torques(self, s: Sensed) -> np.ndarray:
         delta = self.goal() - self.q_des  # move along the straight line, so hip + knee + ankle stay balanced
         self.q_des += delta * min(1.0, self.rate * TIMESTEP_S / max(float(np.abs(delta).max()), 1e-9))
+        lean = self.lean
         if self.balancing:
             self.lean = np.clip(self.lean + self.com_gain * self.com_error(s) * TIMESTEP_S * (1.0, -1.0),
                                 -self.lean_limit, self.lean_limit)
+            lean = self.lean + self.com_damping * self._com_velocity * (1.0, -1.0)
         q_des = self.q_des.copy()
-        q_des[[4, 10]] += self.lean[0]  # ankle pitch +: the legs lean back, the pelvis moves back
-        q_des[[0, 6]] -= self.lean[0]
-        q_des[[5, 11]] += self.lean[1]  # ankle roll +: the pelvis moves left
-        q_des[[1, 7]] -= self.lean[1]
+        q_des[[4, 10]] += lean[0]  # ankle pitch +: the legs lean back, the pelvis moves back
+        q_des[[0, 6]] -= lean[0]
+        q_des[[5, 11]] += lean[1]  # ankle roll +: the pelvis moves left
+        q_des[[1, 7]] -= lean[1]
         if self.upper is not None:
             targets, weight = self.upper
             q_des[ARM0:] += weight * (targets - q_des[ARM0:])
-        self._i_term = np.clip(self._i_term + self._ki * (q_des - s.q) * TIMESTEP_S, -self._i_limit, self._i_limit)
+        ki = self._ki
+        if self.upper_weight > 0.0:
+            ki = ki.copy()
+            ki[ARM0:] *= 1.0 - self.upper_weight
+        self._i_term = np.clip(self._i_term + ki * (q_des - s.q) * TIMESTEP_S, -self._i_limit, self._i_limit)
         return pd(q_des, self._zeros, self._i_term, self.kp, self.kd, s.q, s.dq)
 
     def release(self, s: Sensed) -> None:
