@@ -22,19 +22,24 @@ def run(sim: SimG1, seconds: float) -> None:
     sim.step(round(seconds / sim.dt))
 
 
-def reference_arm_sdk(sim: SimG1) -> float:
-    """Unitree's stock arm_sdk program: weight 1 at once with targets = measured pose, arms out sideways
-    (shoulder roll +/-90 deg) and elbows 90 deg over 6 s, waist at 0, back over 6 s, weight out over 3 s;
-    kp 60, kd 1.5, 50 Hz. Returns the lowest pelvis height seen (m)."""
+REFERENCE = {"left_shoulder_roll": np.pi / 2, "right_shoulder_roll": -np.pi / 2, "left_elbow": np.pi / 2,
+             "right_elbow": np.pi / 2, "waist_yaw": 0.0, "waist_roll": 0.0, "waist_pitch": 0.0}
+ARMS_OVERHEAD = {"left_shoulder_pitch": -2.9, "right_shoulder_pitch": -2.9, "left_elbow": 0.0, "right_elbow": 0.0,
+                 "waist_yaw": 0.0}
+
+
+def arm_sdk_program(sim: SimG1, joints: dict[str, float], hold_s: float = 0.0) -> float:
+    """Unitree's stock arm_sdk program: weight 1 at once with targets = measured pose, to ``joints`` over
+    6 s, held ``hold_s``, back over 6 s, weight out over 3 s; kp 60, kd 1.5, 50 Hz. Returns the lowest
+    pelvis height seen (m)."""
     start = sim.lowstate().q[ARMS].copy()
     goal = start.copy()
-    for joint, value in (("left_shoulder_roll", np.pi / 2), ("right_shoulder_roll", -np.pi / 2),
-                         ("left_elbow", np.pi / 2), ("right_elbow", np.pi / 2), ("waist_yaw", 0.0),
-                         ("waist_roll", 0.0), ("waist_pitch", 0.0)):
+    for joint, value in joints.items():
         goal[JOINT_INDEX[f"{joint}_joint"] - ARMS[0]] = value
     zeros, kp, kd = np.zeros(len(ARMS)), np.full(len(ARMS), 60.0), np.full(len(ARMS), 1.5)
     lowest = float(sim.base_pose().position[2])
     frames = [(start + a * (goal - start), 1.0) for a in np.linspace(0.02, 1.0, 300)]
+    frames += [(goal, 1.0)] * round(hold_s * 50)
     frames += [(goal + a * (start - goal), 1.0) for a in np.linspace(0.02, 1.0, 300)]
     frames += [(start, w) for w in np.linspace(1.0 - 1 / 150, 0.0, 150)]
     for q, weight in frames:
@@ -42,6 +47,11 @@ def reference_arm_sdk(sim: SimG1) -> float:
         run(sim, 0.02)
         lowest = min(lowest, float(sim.base_pose().position[2]))
     return lowest
+
+
+def reference_arm_sdk(sim: SimG1) -> float:
+    """The reference motion: arms out sideways (shoulder roll +/-90 deg), elbows 90 deg, waist at 0."""
+    return arm_sdk_program(sim, REFERENCE)
 
 
 def test_idle_lock_stand_holds_for_120_s() -> None:
@@ -87,6 +97,27 @@ def test_reference_arm_sdk_after_squat_to_stand() -> None:
     assert sim.standing_balanced
     assert reference_arm_sdk(sim) > 0.6
     assert not sim.fallen
+
+
+@pytest.mark.parametrize("fsm", [FsmId.STAND_UP, FsmId.SQUAT_TO_STAND])
+def test_arms_overhead_in_lock_stand_and_the_stance_settles_after_arm_sdk_lets_go(fsm: FsmId) -> None:
+    """Both arms straight up at arm_sdk's soft gains, then handed back: the lock stand must not be left
+    swinging when the weight reaches 0 (it used to tip over backwards ~1 s later)."""
+    sim = SimG1()
+    if fsm == FsmId.SQUAT_TO_STAND:
+        assert sim.set_fsm_id(FsmId.DAMP) == OK
+        run(sim, 2.0)
+        assert sim.set_fsm_id(FsmId.SQUAT_TO_STAND) == OK
+        run(sim, 4.0)
+        assert sim.standing_balanced
+    assert arm_sdk_program(sim, ARMS_OVERHEAD, hold_s=1.0) > 0.6
+    assert sim.arm_sdk_weight == 0.0
+    xs = []
+    for _ in range(30):  # 3 s at weight 0
+        run(sim, 0.1)
+        xs.append(float(sim.base_pose().position[0]))
+    assert not sim.fallen and sim.base_pose().position[2] > 0.7
+    assert max(xs) - min(xs) < 0.02  # settled, not rocking
 
 
 def test_stand_height_bends_the_knees_within_range() -> None:
