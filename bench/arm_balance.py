@@ -99,8 +99,9 @@ def enter(sim: SimG1, case: Case) -> None:
     sim.step(2 * steps)
 
 
-def play_reference(sim: SimG1, pose: dict[int, float]) -> float:
-    """Unitree's arm_sdk program towards ``pose``; return the lowest pelvis height seen (m)."""
+def play_reference(sim: SimG1, pose: dict[int, float]) -> tuple[float, float]:
+    """Unitree's arm_sdk program towards ``pose``; return the lowest pelvis height seen (m) and the walking
+    torso stabiliser's largest torque (N m; see LocomotionController)."""
     n = len(ARM_SDK_JOINTS)
     start = sim.lowstate().q[list(ARM_SDK_JOINTS)].copy()
     goal = start.copy()
@@ -109,15 +110,18 @@ def play_reference(sim: SimG1, pose: dict[int, float]) -> float:
     zeros, kp, kd = np.zeros(n), np.full(n, KP), np.full(n, KD)
     per_frame = round(1.0 / (RATE_HZ * sim.dt))
     lowest = float(sim.base_pose().position[2])
+    assist = 0.0
 
     def frames(seconds: float):
         for i in range(round(seconds * RATE_HZ)):
             yield (i + 1) / (seconds * RATE_HZ)
 
     def send(q: np.ndarray, weight: float) -> None:
-        nonlocal lowest
+        nonlocal lowest, assist
         sim.apply_arm_sdk(q, zeros, zeros, kp, kd, weight)
-        sim.step(per_frame)
+        for _ in range(per_frame):
+            sim.step(1)
+            assist = max(assist, sim.walk_assist_nm)
         lowest = min(lowest, float(sim.base_pose().position[2]))
 
     for a in frames(MOVE_S):
@@ -128,17 +132,18 @@ def play_reference(sim: SimG1, pose: dict[int, float]) -> float:
         send(goal + a * (start - goal), 1.0)
     for a in frames(RAMP_OUT_S):
         send(start, 1.0 - a)
-    return lowest
+    return lowest, assist
 
 
-def run_case(pose: dict[int, float], case: Case) -> tuple[bool, float]:
-    """(fell, lowest pelvis height in m) of one pose in one case, on a fresh sim."""
+def run_case(pose: dict[int, float], case: Case) -> tuple[bool, float, float]:
+    """(fell, lowest pelvis height in m, the stabiliser's largest torque in N m) of one pose in one case,
+    on a fresh sim."""
     sim = SimG1()
     enter(sim, case)
-    lowest = play_reference(sim, pose)
+    lowest, assist = play_reference(sim, pose)
     sim.step(round(SETTLE_S / sim.dt))
     lowest = min(lowest, float(sim.base_pose().position[2]))
-    return lowest < FALL_Z_M or sim.fallen, lowest
+    return lowest < FALL_Z_M or sim.fallen, lowest, assist
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -156,12 +161,13 @@ def main(argv: list[str] | None = None) -> int:
     for name, pose in poses.items():
         cells = []
         for case in cases:
-            fell, lowest = run_case(pose, case)
+            fell, lowest, assist = run_case(pose, case)
             falls += fell
-            cells.append(f"{'FALL' if fell else 'ok'} {lowest:.2f}")
+            cells.append(f"{'FALL' if fell else 'ok'} {lowest:.2f}" + (f" ({assist:.0f})" if assist > 0.0 else ""))
         print(f"| {name} | " + " | ".join(cells) + " |", flush=True)
     total = len(poses) * len(cases)
-    print(f"\nfalls: {falls}/{total} ({100.0 * falls / total:.0f} %); cells: outcome and lowest pelvis z (m); "
+    print(f"\nfalls: {falls}/{total} ({100.0 * falls / total:.0f} %); cells: outcome and lowest pelvis z (m), "
+          "in brackets the walking torso stabiliser's largest torque (N m, capped at 35); "
           f"{time.perf_counter() - t0:.0f} s wall")
     return 0
 

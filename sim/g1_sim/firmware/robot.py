@@ -528,6 +528,12 @@ class SimG1:
             return self._arm.weight
 
     @property
+    def walk_assist_nm(self) -> float:
+        """The walking torso stabiliser's torque on the pelvis now (0 unless arm_sdk moves a walking robot)."""
+        with self._lock:
+            return self._loco.assist_nm
+
+    @property
     def standing_balanced(self) -> bool:
         """The balance controller stands or walks on its own (stand-up motion finished)."""
         with self._lock:

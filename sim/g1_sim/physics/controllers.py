@@ -91,6 +91,13 @@ class DampController:
         pass
 
 
+#: The walking torso stabiliser under arm_sdk (LocomotionController): N m per unit of sin(tilt), N m s/rad,
+#: and the cap, N m (m g x ~0.1 m: the centre of pressure moved by half a foot).
+ASSIST_KP: Final = 300.0
+ASSIST_KD: Final = 30.0
+ASSIST_LIMIT_NM: Final = 35.0
+
+
 class LocomotionController:
     """Balance stand and walking: the policy sets PD targets at 50 Hz; PD runs every physics step.
 
@@ -102,6 +109,14 @@ class LocomotionController:
     it stumble and fall (``bench/arm_balance.py``: 62 % of the grid fell, 27 % with this). Waist roll
     and pitch stay measured (hiding them too made it worse: they tilt the torso, which the policy must
     know). The blend follows the weight, so ramps stay smooth.
+
+    Also while arm_sdk drives the upper body, a **torso stabiliser** that is NOT the robot's: a torque on
+    the pelvis (roll and pitch only, ``xfrc_applied``) that rights its tilt, scaled by the weight and capped
+    at ASSIST_LIMIT_NM, about what moving the centre of pressure under the feet can give this robot. It
+    stands in for what the real locomotion controller has and this policy lacks (training with upper-body
+    perturbation: none ships in a wheel on PyPI). Without it 6 of the 45 walking cells of
+    ``bench/arm_balance.py`` fall (the waist turned 1.5 rad, arms overhead at 0.5 m/s); the bench prints the
+    peak torque each cell took. Walking without arm_sdk never gets it. ``assist_nm`` is the last torque.
     """
 
     def __init__(self, policy: LocomotionPolicy) -> None:
@@ -112,6 +127,7 @@ class LocomotionController:
         self.targets = DEFAULT_POSE.copy()
         self.arm_weight = 0.0
         self.masked = np.r_[ARM0, ARM_SDK_FIRST_ARM_JOINT:NUM_JOINTS]  # waist yaw and both arms
+        self.assist_nm = 0.0
         self._zeros = np.zeros(NUM_JOINTS)
         self._count = 0
 
@@ -131,10 +147,31 @@ class LocomotionController:
             self.targets = self.policy.act(q, dq, s.quat, s.ang_vel_body, self.command,
                                            step_in_place=self.step_in_place)
         self._count += 1
+        self._assist(s)
         return pd(self.targets, self._zeros, self._zeros, self.policy.kp, self.policy.kd, s.q, s.dq)
 
+    def _assist(self, s: Sensed) -> None:
+        """The torso stabiliser (see the class doc): on while arm_sdk has weight, else off."""
+        pelvis = s.g1.pelvis_body
+        if self.arm_weight <= 0.0:
+            if self.assist_nm:
+                s.data.xfrc_applied[pelvis, 3:6] = 0.0
+                self.assist_nm = 0.0
+            return
+        up = s.data.xmat[pelvis].reshape(3, 3)[:, 2]
+        omega = s.data.cvel[pelvis][:3]  # world frame
+        torque = ASSIST_KP * np.cross(up, (0.0, 0.0, 1.0)) - ASSIST_KD * np.array((omega[0], omega[1], 0.0))
+        norm = float(np.linalg.norm(torque))
+        if norm > ASSIST_LIMIT_NM:
+            torque *= ASSIST_LIMIT_NM / norm
+        torque *= self.arm_weight
+        s.data.xfrc_applied[pelvis, 3:6] = torque
+        self.assist_nm = float(np.linalg.norm(torque))
+
     def release(self, s: Sensed) -> None:
-        pass
+        if self.assist_nm:
+            s.data.xfrc_applied[s.g1.pelvis_body, 3:6] = 0.0
+            self.assist_nm = 0.0
 
 
 #: Lock-stand gains by motor (N m/rad, N m s/rad): stiff legs and waist, arms firm, wrists soft.
