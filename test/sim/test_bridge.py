@@ -235,9 +235,10 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_
     frames = status.get()["frames"]["arm_sdk"]
     assert frames["accepted"] >= 50 and frames.get("bad_crc", 0) == 0
 
-    # Damp: the pelvis sinks below 0.3 m within 3 s of sim time.
+    # Damp: the robot goes limp and collapses, the pelvis below 0.4 m within 3 s of sim time (it stands at
+    # 0.76; lying flat it rests at ~0.06-0.25, propped on the arm arm_sdk held forward up to ~0.34).
     assert loco.SetFsmId(1) == 0
-    _poll(status, lambda s: s["base"]["position"][2] < 0.3, sim_timeout_s=3.0)
+    _poll(status, lambda s: s["base"]["position"][2] < 0.4, sim_timeout_s=3.0)
 
     # ReleaseMode: the sport service no longer acts (3203), Damp included.
     assert switcher.ReleaseMode() == (0, None)
