@@ -64,8 +64,8 @@ class RosClient:
         from rcl_interfaces.srv import GetParameters
 
         deadline = time.monotonic() + timeout_s
-        call_timeout_s = 0.25  # a request lost to a half-matched service is retried soon; a slow machine
-        while True:            # gets longer tries
+        call_timeout_s = 0.25  # a request lost to a half-matched service is retried soon, a slow machine
+        while True:  # gets longer tries
             try:
                 self.call(GetParameters, f"{node_name}/get_parameters", GetParameters.Request(names=["dds_domain"]),
                           timeout_s=call_timeout_s, discovery_timeout_s=5.0)
@@ -80,12 +80,11 @@ class RosClient:
         client's own kept client of the service would keep it "present" forever)."""
         return self.node.count_services(name) > 0
 
-    def wait_service_gone(self, name: str, timeout_s: float = 10.0) -> bool:
+    def wait_service_gone(self, name: str, timeout_s: float = 10.0) -> None:
         """After stopping a node: its service must leave the graph before a new node with the same
         name starts, or a new client may match the dead server and its request is lost."""
         if not wait_until(lambda: not self.service_present(name), timeout_s, period_s=0.05):
             raise TimeoutError(f"{name} is still served {timeout_s} s after its node stopped")
-        return True
 
     def close(self) -> None:
         self._executor.shutdown()

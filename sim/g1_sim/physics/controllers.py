@@ -224,7 +224,6 @@ class StanceController:
         self.lead_s = lead_s
         self.lean_limit = lean_limit
         self.com_damping = com_damping
-        self._com_velocity = np.zeros(2)
         self.lean = np.zeros(2)  # (forward, sideways) lean of the legs about the ankles, rad
         self.balancing = False
         #: rt/arm_sdk's weight on motors 12..28: their integral term winds only as far as the hold is in charge
@@ -242,18 +241,18 @@ class StanceController:
         self._i_term[:] = 0.0
         self.lean[:] = 0.0
 
-    def com_error(self, s: Sensed) -> np.ndarray:
-        """Centre of mass, led by its velocity (``lead_s``; damps the servo), minus its place over the feet,
-        m, in the pelvis heading frame (forward, left)."""
+    def com_state(self, s: Sensed) -> tuple[np.ndarray, np.ndarray]:
+        """The centre of mass's error, led by its velocity (``lead_s``; damps the servo), from its place over
+        the feet (m), and its velocity (m/s); both in the pelvis heading frame (forward, left)."""
         d = s.data
         mujoco.mj_subtreeVel(s.g1.model, d)
-        com = d.subtree_com[self._pelvis][:2] + self.lead_s * d.subtree_linvel[self._pelvis][:2]
-        err = com - 0.5 * (d.xpos[self._feet[0]][:2] + d.xpos[self._feet[1]][:2])
+        velocity = d.subtree_linvel[self._pelvis][:2]
+        err = d.subtree_com[self._pelvis][:2] + self.lead_s * velocity
+        err = err - 0.5 * (d.xpos[self._feet[0]][:2] + d.xpos[self._feet[1]][:2])
         heading = d.xmat[self._pelvis].reshape(3, 3)[:2, 0]
         c, si = heading / max(float(np.linalg.norm(heading)), 1e-9)
-        v = d.subtree_linvel[self._pelvis][:2]
-        self._com_velocity = np.array([c * v[0] + si * v[1], -si * v[0] + c * v[1]])
-        return np.array([c * err[0] + si * err[1] - self.poses.com_ahead, -si * err[0] + c * err[1]])
+        to_heading = np.array(((c, si), (-si, c)))
+        return to_heading @ err - (self.poses.com_ahead, 0.0), to_heading @ velocity
 
     def goal(self) -> np.ndarray:
         """The pose being held once the targets arrive: captured legs bent to :attr:`height`."""
@@ -264,9 +263,10 @@ class StanceController:
         self.q_des += delta * min(1.0, self.rate * TIMESTEP_S / max(float(np.abs(delta).max()), 1e-9))
         lean = self.lean
         if self.balancing:
-            self.lean = np.clip(self.lean + self.com_gain * self.com_error(s) * TIMESTEP_S * (1.0, -1.0),
-                                -self.lean_limit, self.lean_limit)
-            lean = self.lean + self.com_damping * self._com_velocity * (1.0, -1.0)
+            err, velocity = self.com_state(s)
+            self.lean = np.clip(self.lean + self.com_gain * err * TIMESTEP_S * (1.0, -1.0), -self.lean_limit,
+                                self.lean_limit)
+            lean = self.lean + self.com_damping * velocity * (1.0, -1.0)
         q_des = self.q_des.copy()
         q_des[[4, 10]] += lean[0]  # ankle pitch +: the legs lean back, the pelvis moves back
         q_des[[0, 6]] -= lean[0]
