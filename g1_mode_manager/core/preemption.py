@@ -91,11 +91,6 @@ class RunPort:
         self._port.damp(timeout_s=self._call_timeout_s)
         self._check("damp")
 
-    def damp_no_reply(self) -> None:
-        self._check("damp_no_reply")
-        self._port.damp_no_reply()
-        self._check("damp_no_reply")
-
     def get_fsm_id(self) -> int:
         self._check("get_fsm_id")
         fsm_id = self._port.get_fsm_id(timeout_s=self._call_timeout_s)

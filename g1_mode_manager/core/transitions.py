@@ -2,7 +2,8 @@
 
 The table is the whole policy; :class:`~g1_mode_manager.core.machine.ModeMachine` only executes the
 steps listed here. Same-mode requests (other than a repeated e-stop) are refused with "already in X":
-a caller that needs idempotence reads the mode from the outcome.
+a caller that needs idempotence reads the mode from the outcome. The one exception is data too:
+after the robot was seen not to match the mode, requesting that mode re-runs its entry (``reentry``).
 """
 
 from __future__ import annotations
@@ -30,6 +31,14 @@ class Transition:
     target: Mode
     steps: tuple[Step, ...]
     description: str
+    #: The robot is limp afterwards even if no SelectMode was needed (it was released before): the
+    #: outcome says so (ZERO_TORQUE_NOTE), as it does after every SelectMode.
+    leaves_robot_limp: bool = False
+
+
+#: Added to a transition's outcome when the robot comes out of it limp: SelectMode brings the service back
+#: in zero torque, as at boot.
+ZERO_TORQUE_NOTE = "robot is in zero torque; send stand_up/damp"
 
 
 _U, _I, _H, _L, _E = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY
@@ -45,12 +54,21 @@ TRANSITIONS: tuple[Transition, ...] = (
     Transition(_H, _I, (),                   "forwarding stopped (the node sends StopMove)"),
     Transition(_H, _L, (_RELEASE,),          "high-level service released, robot limp"),
     Transition(_L, _I, (),                   "forwarding stopped; robot stays released (limp, debug mode)"),
-    Transition(_L, _H, (_ACTIVE,),           "high-level service active"),
+    Transition(_L, _H, (_ACTIVE,),           "high-level service active", leaves_robot_limp=True),
     *(Transition(m, _E, (Step.ESTOP,),       "e-stop: damping") for m in Mode),
 )
 # fmt: on
 
 TABLE: dict[tuple[Mode, Mode], Transition] = {(t.source, t.target): t for t in TRANSITIONS}
+
+#: Requesting the current mode after a robot/mode mismatch re-runs the mode's entry, as from IDLE.
+# fmt: off
+REENTRIES: dict[Mode, Transition] = {
+    _I: Transition(_I, _I, (),         "re-entered: nothing is forwarded"),
+    _H: Transition(_H, _H, (_ACTIVE,),  "high-level service active"),
+    _L: Transition(_L, _L, (_RELEASE,), "high-level service released, robot limp"),
+}
+# fmt: on
 
 
 def lookup(source: Mode, target: Mode) -> Transition | str:
@@ -70,3 +88,10 @@ def lookup(source: Mode, target: Mode) -> Transition | str:
         case (_, Mode.UNINITIALIZED):
             return "nothing goes back to UNINITIALIZED; request IDLE to stop forwarding"
     raise AssertionError(f"transition table has no rule for {source.name} -> {target.name}")
+
+
+def rule_for(source: Mode, target: Mode, *, mismatch: bool) -> Transition | str:
+    """``lookup``, except that after a robot/mode mismatch the current mode's entry runs again."""
+    if mismatch and source is target and source in REENTRIES:
+        return REENTRIES[source]
+    return lookup(source, target)

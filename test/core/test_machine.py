@@ -461,9 +461,7 @@ def test_a_raising_callback_never_breaks_the_estop() -> None:
     def explode(_: object) -> None:
         raise RuntimeError("node bug")
 
-    rig = make_rig()
-    rig.machine._on_change = explode
-    rig.machine._on_record = explode
+    rig = make_rig(on_change=explode, on_record=explode)
     rig.bring_to(LO)
     outcome = rig.machine.estop()
     assert outcome.success and rig.machine.is_emergency()
@@ -485,15 +483,16 @@ def test_predicates_follow_the_mode(mode: Mode) -> None:
 @pytest.mark.parametrize(("source", "target"), [(HI, LO), (LO, HI), (HI, ID)], ids=lambda m: m.name)
 def test_predicates_allow_nothing_while_a_transition_runs(source: Mode, target: Mode) -> None:
     seen: list[tuple[bool, ...]] = []
-    rig = make_rig()
-    rig.bring_to(source)
+    probing: list[bool] = []
 
     def probe(status: object) -> None:
         m = rig.machine
-        if m.status().transition_in_progress:
+        if probing and m.status().transition_in_progress:
             seen.append((m.allows_cmd_vel(), m.allows_arm_commands(), m.allows_loco_commands(), m.allows_low_level_commands()))
 
-    rig.machine._on_change = probe
+    rig = make_rig(on_change=probe)
+    rig.bring_to(source)
+    probing.append(True)
     assert rig.machine.request(target).success
     assert seen == [(False, False, False, False)]
 

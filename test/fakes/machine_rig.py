@@ -29,15 +29,16 @@ class Rig:
 
 
 def make_rig(service: str = ACTIVE, *, real_time: bool = False, **machine_kwargs: object) -> Rig:
-    """A fresh fake robot (``service`` active) and machine; fake time unless ``real_time``."""
+    """A fresh fake robot (``service`` active) and machine; fake time unless ``real_time``. ``on_record`` and
+    ``on_change`` in ``machine_kwargs`` replace the rig's collectors."""
     robot = FakeRobot(service)
     clock = None if real_time else FakeClock()
     rig = Rig(robot=robot, machine=None, clock=clock)  # type: ignore[arg-type]
     timing = {"clock": time.monotonic, "sleep": time.sleep} if clock is None else {"clock": clock, "sleep": clock.sleep}
+    machine_kwargs.setdefault("on_record", rig.records.append)
+    machine_kwargs.setdefault("on_change", rig.statuses.append)
     rig.machine = ModeMachine(
         robot,
-        on_record=rig.records.append,
-        on_change=rig.statuses.append,
         **timing,  # type: ignore[arg-type]
         **machine_kwargs,  # type: ignore[arg-type]
     )

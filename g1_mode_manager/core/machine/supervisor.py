@@ -1,0 +1,124 @@
+"""The supervision: keeps EMERGENCY true on the robot, and checks every other mode against the robot.
+
+Called periodically by the node (about 10 Hz) with the last rt/sportmodestate:
+- In EMERGENCY a robot seen out of damping (rt/sportmodestate, a periodic CheckMode + GetFsmId, a call
+  that landed after the e-stop began, a sequence that did not verify) is re-selected and re-damped at
+  once, with an alarm; nothing leaves EMERGENCY.
+- In HIGH_LEVEL and LOW_LEVEL a CheckMode every ``belief_period_s`` must agree with the mode; otherwise
+  forwarding stops (``robot_mismatch``) until an operator requests a mode again.
+"""
+
+from __future__ import annotations
+
+from g1_mode_manager.core.estop_policy import EstopTiming
+from g1_mode_manager.core.machine.estop import Estop, verdict
+from g1_mode_manager.core.machine.gate import ForwardGate
+from g1_mode_manager.core.machine.state import MachineState
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import ModePort, RobotError
+from g1_mode_manager.core.service_steps import StepTimeoutError
+from g1_mode_manager.protocol.fsm import FsmId
+
+#: rt/sportmodestate read within this long after the robot was verified damped is no evidence against it
+#: (the newest sample may predate the Damp: the robot publishes it faster than the supervision reads it), s.
+STATE_SETTLE_S = 0.25
+
+
+class Supervisor:
+    def __init__(self, state: MachineState, gate: ForwardGate, estop: Estop, port: ModePort,
+                 timing: EstopTiming) -> None:  # fmt: skip
+        self._state = state
+        self._gate = gate
+        self._estop = estop
+        self._port = port
+        self._timing = timing
+
+    def supervise(self, fsm_id: int | None, state_age_s: float | None) -> None:
+        state = self._state
+        now = state.clock()
+        with state.lock:
+            mode, connected, transition = state.mode, state.connected, state.inflight is not None
+        if not connected and mode is not Mode.EMERGENCY:
+            return
+        if mode is Mode.EMERGENCY:
+            self._keep_damped(now, fsm_id, state_age_s)
+        elif mode in (Mode.HIGH_LEVEL, Mode.LOW_LEVEL) and not transition:
+            self._check_belief(now, mode)
+
+    # --- EMERGENCY -------------------------------------------------------------------------------
+    def _keep_damped(self, now: float, fsm_id: int | None, state_age_s: float | None) -> None:
+        if self._estop.running():
+            return
+        state, timing = self._state, self._timing
+        with state.lock:
+            late, state.late_landing = state.late_landing, False
+            confirmed = state.damp_confirmed
+            verify_due = now >= state.next_verify
+            if verify_due:
+                state.next_verify = now + timing.verify_period_s
+            # a sample read just after a verification may have been sent before the Damp took effect
+            settled = now - state.verified_at > STATE_SETTLE_S
+        fresh = fsm_id is not None and state_age_s is not None and state_age_s <= timing.state_fresh_s and settled
+        why = ""
+        if late:
+            why = "a robot call landed after the e-stop began"
+        elif fresh and fsm_id != FsmId.DAMP:
+            why = f"robot left damping: rt/sportmodestate says fsm {fsm_id}"
+        elif not confirmed:
+            why = "the last e-stop sequence did not verify the robot damped"
+        elif verify_due:
+            why = self._verify_now()
+        if not why or not self._estop.claim_runner():
+            return
+        with state.lock:
+            state.reasserts += 1
+            state.damp_confirmed = False
+            state.version += 1
+        state.alarm(f"EMERGENCY re-asserted: {why}")
+        self._estop.fire_damp_no_reply()
+        run = self._estop.run_sequences()
+        if run.why is not None:
+            state.alarm(f"EMERGENCY re-assert incomplete: {run.why}")
+
+    def _verify_now(self) -> str:
+        """'' if CheckMode names a service and GetFsmId is Damp, else why not."""
+        try:
+            return verdict(self._estop.calls())
+        except (RobotError, StepTimeoutError) as exc:
+            return f"verification failed: {exc}"
+        except Exception as exc:
+            return f"verification failed: unexpected {type(exc).__name__}: {exc}"
+
+    # --- every other mode ------------------------------------------------------------------------
+    def _check_belief(self, now: float, mode: Mode) -> None:
+        state = self._state
+        with state.lock:
+            if now < state.next_belief or state.mismatch:
+                return
+            state.next_belief = now + self._timing.belief_period_s
+            version = state.version
+        try:
+            name = self._port.check_mode(timeout_s=self._timing.call_s)
+        except Exception:  # a lost answer is link health's business, not a mismatch
+            return
+        if bool(name) == (mode is Mode.HIGH_LEVEL):
+            return
+        what = f"service {name!r} active" if name else "the high-level service released"
+        self.report_mismatch(f"robot does not match {mode.name}: CheckMode says {what}", version)
+
+    def report_mismatch(self, reason: str, version: int | None = None) -> None:
+        """The robot no longer matches the mode (another program, a reboot): stop forwarding until an
+        operator requests a mode again. Ignored in EMERGENCY (supervision handles it there), and if the
+        state changed since ``version`` (the evidence is then stale)."""
+        state = self._state
+        with self._gate.lock, state.lock:
+            if state.mode in (Mode.EMERGENCY, Mode.UNINITIALIZED) or state.inflight is not None or state.mismatch:
+                return
+            if version is not None and version != state.version:
+                return
+            state.mismatch = reason
+            state.service_known = False
+            state.last_error = reason
+            state.version += 1
+        state.alarm(f"{reason}; forwarding stopped until a mode is requested again")
+        state.notify()
