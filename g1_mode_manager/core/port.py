@@ -81,6 +81,13 @@ class MotorCommand:
     kd: float = 0.0
 
 
+class PendingReply(Protocol):
+    """A request already written; its reply still to come."""
+
+    def wait(self) -> None:
+        """Block until the robot answered or the call's timeout passed; raises RobotError on failure."""
+
+
 @runtime_checkable
 class RobotPort(ModePort, Protocol):
     """Everything the node sends to or reads from the robot."""
@@ -91,6 +98,10 @@ class RobotPort(ModePort, Protocol):
     def set_balance_mode(self, mode: int) -> None: ...
     def set_speed_mode(self, mode: int) -> None: ...
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None: ...
+    def send_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> PendingReply:
+        """Write a SetVelocity request now and return without waiting for its reply (so a forward gate
+        held around the write is never held for a round trip). Never waits for a server to match:
+        with none matched it raises RobotError (3102, not sent) at once."""
     def high_stand(self) -> None: ...
     def low_stand(self) -> None: ...
     def set_arm_task(self, task_id: int) -> None: ...

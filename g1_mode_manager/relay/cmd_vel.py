@@ -17,7 +17,7 @@ from collections.abc import Callable
 
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotError, RobotPort
+from g1_mode_manager.core.port import PendingReply, RobotError, RobotPort
 from g1_mode_manager.core.velocity import (
     ZERO,
     RateLimiter,
@@ -203,8 +203,11 @@ class CmdVelRelay:
             return  # the robot runs exactly this already: only the keep-alive repeats it (a 100 Hz stream of
             # one value costs cmd_vel_rate_hz Moves a second, not max_rate_hz)
         with self._gate.forwarding(modes.allows_cmd_vel) as allowed:
-            if allowed:
-                self._send_move(v, now)
+            if not allowed:
+                return
+            reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
+        if reply is not None:
+            self._settle_move(reply, v, now)
 
     def _rest(self, why: str) -> None:
         """Nothing to send: a StopMove if one is owed, and the limiter starts again from standstill."""
@@ -213,17 +216,21 @@ class CmdVelRelay:
         if self._maybe_moving or self._stop_reason is not None:
             self._stop_move(why)
 
-    def _send_move(self, v: Velocity, now: float) -> None:
+    def _write_move(self, v: Velocity) -> PendingReply | None:
+        """Write one Move; None if it was not sent (counted and logged, the ramp restarts)."""
         self._spend()
         try:
-            self._port.set_velocity(v.vx, v.vy, v.wz, self._move_duration_s)
+            return self._port.send_velocity(v.vx, v.vy, v.wz, self._move_duration_s)
         except RobotError as exc:
-            lost = exc.code == ERR_CLIENT_API_TIMEOUT  # sent, answer lost: it may be running
-            self._maybe_moving = self._maybe_moving or (lost and not v.is_zero())
-            self._limiter.reset()
-            self._last_ack = None
-            self._events.count("rpc_failures")
-            self._events.log("error", "move_failed", f"Move failed: {exc}; the ramp restarts from zero")
+            self._move_failed(exc, v)
+            return None
+
+    def _settle_move(self, reply: PendingReply, v: Velocity, now: float) -> None:
+        """The Move's reply: the limiter advances only on an acknowledged Move."""
+        try:
+            reply.wait()
+        except RobotError as exc:
+            self._move_failed(exc, v)
             return
         self._limiter.commit(v)
         self._last_ack = now
@@ -231,6 +238,14 @@ class CmdVelRelay:
         self._stop_reason = None
         self._stop_attempts = 0
         self._events.count("moves_sent")
+
+    def _move_failed(self, exc: RobotError, v: Velocity) -> None:
+        lost = exc.code == ERR_CLIENT_API_TIMEOUT  # sent, answer lost: it may be running
+        self._maybe_moving = self._maybe_moving or (lost and not v.is_zero())
+        self._limiter.reset()
+        self._last_ack = None
+        self._events.count("rpc_failures")
+        self._events.log("error", "move_failed", f"Move failed: {exc}; the ramp restarts from zero")
 
     def _stop_move(self, why: str) -> bool:
         """Send StopMove (SetVelocity 0, 0, 0); True once it is settled (acknowledged, refused or given up)."""

@@ -21,7 +21,8 @@ class ModeGate(Protocol):
     def allows_low_level_commands(self) -> bool: ...
 
     def forwarding(self, predicate: Callable[[Mode], bool]) -> AbstractContextManager[bool]:
-        """Held around one send: True iff it may pass; no mode change or e-stop starts meanwhile."""
+        """Held around one write: True iff it may pass; no mode change or e-stop starts meanwhile. Never
+        held while waiting for the robot's reply: wait after the block."""
 
     def ramping_out(self) -> AbstractContextManager[bool]:
         """Held around one hand-back frame: True unless an e-stop began (then nothing but damping is sent)."""

@@ -11,7 +11,7 @@ import math
 
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import SPEED_MODE_MAX_SPEED, BalanceMode, FsmId
-from g1_mode_manager.sdk.rpc_client import RpcClient, parse_number
+from g1_mode_manager.sdk.rpc_client import PendingCall, RpcClient, parse_number
 
 #: The e-stop's first packet's parameter, encoded once.
 _DAMP_TEXT = json.dumps({"data": int(FsmId.DAMP)})
@@ -21,6 +21,13 @@ def _finite(name: str, **values: float) -> None:
     for key, value in values.items():
         if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
             raise ValueError(f"{name}: {key} must be a finite number, got {value!r}")
+
+
+def _velocity(vx: float, vy: float, wz: float, duration: float) -> dict[str, object]:
+    _finite("SetVelocity", vx=vx, vy=vy, wz=wz, duration=duration)
+    if duration < 0:
+        raise ValueError(f"SetVelocity: duration must be >= 0, got {duration!r}")
+    return {"velocity": [float(vx), float(vy), float(wz)], "duration": float(duration)}
 
 
 class LocoClient(RpcClient):
@@ -66,11 +73,13 @@ class LocoClient(RpcClient):
     def set_velocity(self, vx: float, vy: float, wz: float, duration: float = api.MOVE_DURATION_S, *,
                      timeout_s: float | None = None) -> None:  # fmt: skip
         """SetVelocity: body velocity (m/s, m/s, rad/s) held for ``duration`` s. NaN/inf raise ValueError."""
-        _finite("SetVelocity", vx=vx, vy=vy, wz=wz, duration=duration)
-        if duration < 0:
-            raise ValueError(f"SetVelocity: duration must be >= 0, got {duration!r}")
-        parameter = {"velocity": [float(vx), float(vy), float(wz)], "duration": float(duration)}
-        self.call("SetVelocity", api.LOCO_SET_VELOCITY, parameter, timeout_s=timeout_s)
+        self.call("SetVelocity", api.LOCO_SET_VELOCITY, _velocity(vx, vy, wz, duration), timeout_s=timeout_s)
+
+    def send_velocity(self, vx: float, vy: float, wz: float, duration: float = api.MOVE_DURATION_S, *,
+                      timeout_s: float | None = None) -> PendingCall:  # fmt: skip
+        """SetVelocity written at once, its reply awaited by the returned call's ``wait()``; raises
+        RobotError (3102) at once if no server is matched (nothing waits for one)."""
+        return self.send("SetVelocity", api.LOCO_SET_VELOCITY, _velocity(vx, vy, wz, duration), timeout_s=timeout_s)
 
     def set_arm_task(self, task_id: int, *, timeout_s: float | None = None) -> None:
         """SetArmTask: a built-in arm motion (``api.ARM_TASK_*``: wave, wave and turn, shake hand stages)."""

@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
-from g1_mode_manager.core.port import MotorCommand, RobotError, SportState
+from g1_mode_manager.core.port import MotorCommand, PendingReply, RobotError, SportState
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
 from g1_mode_manager.protocol.dds import init_channels
 from g1_mode_manager.protocol.idl import SportModeState_
@@ -175,6 +175,9 @@ class UnitreeRobot:
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self.loco.set_velocity(vx, vy, wz, duration_s)
+
+    def send_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> PendingReply:
+        return self.loco.send_velocity(vx, vy, wz, duration_s)
 
     # --- streams ----------------------------------------------------------------------------------
     def write_arm_sdk(self, targets: Sequence[MotorCommand], weight: float) -> None:

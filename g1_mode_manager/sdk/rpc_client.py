@@ -34,7 +34,7 @@ from g1_mode_manager.protocol.api_ids import (
     OK,
 )
 from g1_mode_manager.sdk.request_writer import RequestWriter
-from g1_mode_manager.sdk.response_reader import ResponseReader
+from g1_mode_manager.sdk.response_reader import Pending, ResponseReader
 
 
 class RpcClient(Client):
@@ -70,6 +70,16 @@ class RpcClient(Client):
         ``parameter`` is JSON-encoded (None sends ``{}``). Raises RobotError with the robot's code,
         or 3102 (not sent: no server matched in time), 3104 (no reply within the timeout).
         """
+        return self.send(name, api_id, parameter, timeout_s=timeout_s, match_wait=True).wait()
+
+    def send(self, name: str, api_id: int, parameter: Any = None, *, timeout_s: float | None = None,
+             match_wait: bool = False) -> PendingCall:  # fmt: skip
+        """Write a request now; its reply is awaited by the returned call's ``wait()``.
+
+        With ``match_wait`` the write first waits (within the timeout) for a matched server, as the SDK
+        does; without it nothing waits here, and with no server matched it raises RobotError (3102) at
+        once: for a caller that holds a lock around the write.
+        """
         if api_id != RPC_API_ID_INTERNAL_API_VERSION and api_id not in self._api_ids:
             raise RobotError(name, ERR_CLIENT_API_NOT_REG, f"api {api_id} not registered for {self.service!r}")
         timeout = self.timeout_s if timeout_s is None else float(timeout_s)
@@ -77,18 +87,11 @@ class RpcClient(Client):
         text = "{}" if parameter is None else json.dumps(parameter)
         request_id = self._next_id()
         pending = self._replies.expect(request_id)  # before the write: the reply may come before write() returns
-        if not self._writer.write(request_id, api_id, text, False, timeout):  # waits for a matched server
+        if not self._writer.write(request_id, api_id, text, False, timeout if match_wait else 0.0):
             self._replies.forget(request_id)
-            raise RobotError(name, ERR_CLIENT_SEND, f"no {self.service!r} server matched within {timeout:.2f} s")
-        reply = self._replies.wait(pending, max(0.0, deadline - time.monotonic()))
-        if reply is None:
-            self._replies.forget(request_id)
-            raise RobotError(name, ERR_CLIENT_API_TIMEOUT, f"no reply from {self.service!r} in {timeout:.2f} s")
-        if reply.api_id != api_id:
-            raise RobotError(name, ERR_CLIENT_API_NOT_MATCH, f"reply for api {reply.api_id}")
-        if reply.code != OK:
-            raise RobotError(name, reply.code, f"{self.service} api {api_id} {text}")
-        return reply.data
+            waited = f"within {timeout:.2f} s" if match_wait else "(not waited for)"
+            raise RobotError(name, ERR_CLIENT_SEND, f"no {self.service!r} server matched {waited}")
+        return PendingCall(self, name, api_id, text, request_id, pending, timeout, deadline)
 
     def call_no_reply(self, name: str, api_id: int, parameter: Any = None, *, text: str | None = None) -> None:
         """Send a request flagged no-reply (the server runs it and answers nothing): written at once.
@@ -121,6 +124,36 @@ class RpcClient(Client):
             except RobotError:
                 if deadline - time.monotonic() <= 0:
                     raise
+
+
+class PendingCall:
+    """A request written, its reply still to come (``RpcClient.send``)."""
+
+    __slots__ = ("_api_id", "_client", "_deadline", "_name", "_pending", "_request_id", "_text", "_timeout_s")
+
+    def __init__(self, client: RpcClient, name: str, api_id: int, text: str, request_id: int, pending: Pending,
+                 timeout_s: float, deadline: float) -> None:  # fmt: skip
+        self._client = client
+        self._name = name
+        self._api_id = api_id
+        self._text = text
+        self._request_id = request_id
+        self._pending = pending
+        self._timeout_s = timeout_s
+        self._deadline = deadline  # set before the write: a wait for a matched server counts too
+
+    def wait(self) -> str:
+        """The reply's data string, once it came; raises RobotError (3104 when the timeout passed first)."""
+        client = self._client
+        reply = client._replies.wait(self._pending, max(0.0, self._deadline - time.monotonic()))
+        if reply is None:
+            client._replies.forget(self._request_id)
+            raise RobotError(self._name, ERR_CLIENT_API_TIMEOUT, f"no reply from {client.service!r} in {self._timeout_s:.2f} s")
+        if reply.api_id != self._api_id:
+            raise RobotError(self._name, ERR_CLIENT_API_NOT_MATCH, f"reply for api {reply.api_id}")
+        if reply.code != OK:
+            raise RobotError(self._name, reply.code, f"{client.service} api {self._api_id} {self._text}")
+        return reply.data
 
 
 def parse_data(name: str, data: str, key: str = "data") -> Any:

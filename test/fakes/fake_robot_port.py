@@ -24,6 +24,21 @@ class Sent:
     at: float
 
 
+class FakeReply:
+    """A Move's reply: waits for its hold event, if any, then raises the injected code, if any."""
+
+    def __init__(self, name: str, code: int | None, hold: threading.Event | None) -> None:
+        self._name = name
+        self._code = code
+        self._hold = hold
+
+    def wait(self) -> None:
+        if self._hold is not None:
+            self._hold.wait(10.0)
+        if self._code is not None:
+            raise RobotError(self._name, self._code, "injected")
+
+
 class FakeRobotPort(FakeRobot):
     """Records every stream call with its time; state (ages, fsm) is set by the test."""
 
@@ -38,6 +53,8 @@ class FakeRobotPort(FakeRobot):
         self.listener: Callable[[SportState], None] | None = None
         self.restarts = 0
         self.lowstate_wanted = True
+        #: An event: Move replies written while it is in place wait until it is set (at most 10 s).
+        self.move_reply_hold: threading.Event | None = None
 
     def _record(self, name: str, *args: object) -> None:
         code = self.fail_stream.get(name)
@@ -74,6 +91,13 @@ class FakeRobotPort(FakeRobot):
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self._record("set_velocity", vx, vy, wz, duration_s)
+
+    def send_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> FakeReply:
+        """Recorded as set_velocity when written; an injected failure and ``move_reply_hold`` come with the reply."""
+        code = self.fail_stream.get("set_velocity")
+        with self._stream_lock:
+            self.sent.append(Sent("set_velocity", (vx, vy, wz, duration_s), time.monotonic()))
+        return FakeReply("set_velocity", code, self.move_reply_hold)
 
     def write_arm_sdk(self, targets: Sequence[MotorCommand], weight: float) -> None:
         assert len(targets) == 17
