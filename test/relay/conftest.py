@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from relay_fakes import Clock
 
+from fakes.fake_clock import FakeClock
 from g1_mode_manager.relay.events import RelayEvents
 
 
@@ -19,5 +19,5 @@ def events(logs) -> RelayEvents:
 
 
 @pytest.fixture
-def clock() -> Clock:
-    return Clock()
+def clock() -> FakeClock:
+    return FakeClock(start=100.0)  # the head LED's patterns are read at these exact times

@@ -46,7 +46,7 @@ class Rig:
 
     def run(self, seconds: float, rate_hz: float = 10.0) -> None:
         for _ in range(round(seconds * rate_hz)):
-            self.clock.t += 1.0 / rate_hz
+            self.clock.advance(1.0 / rate_hz)
             self.led.tick()
 
 
