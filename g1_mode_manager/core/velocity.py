@@ -83,7 +83,7 @@ def sanitize(vx: float, vy: float, wz: float, limits: VelocityLimits) -> Sanitiz
     return Sanitized(clamped, rejected=False, clamped=was_clamped, reason=reason)
 
 
-class RateLimiter:
+class AccelerationLimiter:
     """Moves the commanded velocity toward the target by at most the acceleration limit per step.
 
     ``propose`` computes the next command without changing state; ``commit`` records it once the

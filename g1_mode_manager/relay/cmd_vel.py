@@ -20,7 +20,7 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.core.velocity import (
     ZERO,
-    RateLimiter,
+    AccelerationLimiter,
     Sanitized,
     Velocity,
     VelocityLimits,
@@ -67,7 +67,7 @@ class CmdVelRelay:
         self._period_s = 1.0 / rate_hz
         self._ramp_s = min(self._period_s, RAMP_PERIOD_S)
         self._max_rate_hz = max_rate_hz
-        self._limiter = RateLimiter(limits, max_dt_s=self._ramp_s)
+        self._limiter = AccelerationLimiter(limits, max_dt_s=self._ramp_s)
         self._watchdog = Watchdog(timeout_s, clock)
         self._move_duration_s = check_move_duration(move_duration_s)
         self._on_error = on_error
