@@ -12,18 +12,37 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
+from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND, describe_code
+
 
 class RobotError(Exception):
-    """A robot call failed: the call's name, the robot's return code, and why."""
+    """A robot call failed: the call's name, the robot's return code, and why.
+
+    Callers ask the error what the failure means for the robot (:attr:`maybe_delivered`,
+    :attr:`not_sent`, :attr:`transport`) instead of knowing the SDK's return codes.
+    """
 
     def __init__(self, call: str, code: int, detail: str = "") -> None:
-        from g1_mode_manager.protocol.api_ids import describe_code
-
         self.call = call
         self.code = code
         self.detail = detail
         text = f"{call} failed: {describe_code(code)}"
         super().__init__(f"{text}: {detail}" if detail else text)
+
+    @property
+    def not_sent(self) -> bool:
+        """The request never left this process (no server matched): the robot cannot be acting on it."""
+        return self.code == ERR_CLIENT_SEND
+
+    @property
+    def maybe_delivered(self) -> bool:
+        """The request went out but its answer was lost (timeout): the robot may be acting on it."""
+        return self.code == ERR_CLIENT_API_TIMEOUT
+
+    @property
+    def transport(self) -> bool:
+        """Lost on the way (not sent, or the answer lost), not refused by the robot: sending again may work."""
+        return self.not_sent or self.maybe_delivered
 
 
 @runtime_checkable

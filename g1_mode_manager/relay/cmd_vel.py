@@ -29,7 +29,6 @@ from g1_mode_manager.core.velocity import (
     sanitize,
 )
 from g1_mode_manager.core.watchdog import Watchdog
-from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
@@ -218,7 +217,7 @@ class CmdVelRelay:
         try:
             self._port.set_velocity(v.vx, v.vy, v.wz, self._move_duration_s)
         except RobotError as exc:
-            lost = exc.code == ERR_CLIENT_API_TIMEOUT  # sent, answer lost: it may be running
+            lost = exc.maybe_delivered  # sent, answer lost: it may be running
             self._maybe_moving = self._maybe_moving or (lost and not v.is_zero())
             self._limiter.reset()
             self._last_ack = None
@@ -243,7 +242,7 @@ class CmdVelRelay:
             self._port.set_velocity(0.0, 0.0, 0.0, self._move_duration_s)
         except RobotError as exc:
             self._events.count("rpc_failures")
-            if exc.code in (ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND) and self._stop_attempts < STOP_ATTEMPTS:
+            if exc.transport and self._stop_attempts < STOP_ATTEMPTS:
                 self._events.log("error", "stop_move_failed",
                                  f"StopMove ({self._stop_reason}) failed: {exc}; sending it again")
                 return False
