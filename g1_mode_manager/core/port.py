@@ -100,6 +100,13 @@ class MotorCommand:
     kd: float = 0.0
 
 
+class VoicePort(Protocol):
+    """The part of the robot's voice service the head LED needs (sdk.voice_client.VoiceClient)."""
+
+    def set_led(self, r: int, g: int, b: int) -> None: ...
+    def tts(self, text: str) -> None: ...
+
+
 @runtime_checkable
 class RobotPort(ModePort, Protocol):
     """Everything the node sends to or reads from the robot."""
@@ -144,6 +151,15 @@ class RobotPort(ModePort, Protocol):
 
     def lowstate_receiving(self) -> bool:
         """True while rt/lowstate is subscribed (connected and wanted)."""
+
+    def lowstate_data(self) -> tuple[bytes, int] | None:
+        """The serialised latest rt/lowstate and how many arrived so far; None before the first (or on a
+        port without the raw stream). Decoded (protocol.lowstate_fields) only by whoever publishes it."""
+
+    # --- signalling ------------------------------------------------------------------------
+    def voice(self, timeout_s: float = 0.5) -> VoicePort | None:
+        """The voice service (head LED, TTS) with calls of ``timeout_s``; None while there is none (not
+        connected yet, closed, or a port without one)."""
 
     def close(self) -> None:
         """Stop readers and writers."""

@@ -21,7 +21,7 @@ from sensor_msgs.msg import JointState
 
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.core.port import RobotPort, VoicePort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.node.diagnostics import build_diagnostics
@@ -36,7 +36,7 @@ from g1_mode_manager.node.twist_cdr import twist_velocity
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
-from g1_mode_manager.relay.head_led import HeadLed, VoicePort, parse_looks
+from g1_mode_manager.relay.head_led import HeadLed, parse_looks
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.stamps import stamp_age_s
@@ -250,8 +250,7 @@ class ModeManagerNode(Node):
 
     def _voice_port(self) -> VoicePort | None:
         """issue 11: the robot's voice service once the port is connected (ports without one: None)."""
-        voice = getattr(self._port, "voice", None)
-        return None if voice is None else voice(self.settings.voice_timeout_s)
+        return self._port.voice(self.settings.voice_timeout_s)
 
     def _on_arm_cmd(self, msg: JointState) -> None:
         self._arm.submit(list(msg.name), list(msg.position))

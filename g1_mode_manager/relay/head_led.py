@@ -13,9 +13,9 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
-from typing import Protocol
 
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import VoicePort
 from g1_mode_manager.relay.events import RelayEvents
 
 Rgb = tuple[int, int, int]
@@ -107,13 +107,6 @@ def parse_looks(texts: Mapping[Mode, str]) -> dict[Mode, LedLook]:
         except ValueError as exc:
             raise ValueError(f"head LED of {mode.name}: {exc}") from None
     return looks
-
-
-class VoicePort(Protocol):
-    """The part of the robot's voice service the head LED needs (sdk.voice_client.VoiceClient)."""
-
-    def set_led(self, r: int, g: int, b: int) -> None: ...
-    def tts(self, text: str) -> None: ...
 
 
 class HeadLed:
