@@ -16,7 +16,6 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.duration import Duration
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from g1_mode_manager.core.machine import ModeMachine
@@ -40,11 +39,9 @@ from g1_mode_manager.relay.head_led import HeadLed, parse_looks
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.stamps import stamp_age_s
+from g1_mode_manager.topic_qos import MODE_QOS
 
 PortFactory = Callable[[Settings], RobotPort]
-
-#: ~/mode: a late `ros2 topic echo` still sees the current mode.
-MODE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def unitree_port(settings: Settings) -> RobotPort:
