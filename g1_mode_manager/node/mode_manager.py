@@ -23,11 +23,10 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort, VoicePort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
 from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.display.head_led import HeadLed, parse_looks
 from g1_mode_manager.node.diagnostics import build_diagnostics
 from g1_mode_manager.node.estop import EstopEndpoint
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.node.loco_commands import run_loco_command
-from g1_mode_manager.node.lowstate_demand import LowStateDemand
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
@@ -35,8 +34,9 @@ from g1_mode_manager.node.twist_cdr import twist_velocity
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
-from g1_mode_manager.relay.head_led import HeadLed, parse_looks
+from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
+from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.stamps import stamp_age_s
 from g1_mode_manager.topic_qos import MODE_QOS

@@ -10,7 +10,7 @@ from rclpy.node import Node
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
-from g1_mode_manager.relay.head_led import DEFAULT_LOOKS
+from g1_mode_manager.display.head_led import DEFAULT_LOOKS
 
 
 @dataclass(frozen=True)

@@ -12,9 +12,9 @@ from relay_fakes import Gate
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import VelocityLimits
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.relay.cmd_vel import STOP_ATTEMPTS, CmdVelRelay
+from g1_mode_manager.relay.link_health import LinkHealth
 from support.mode_manager import wait_until
 
 LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)

@@ -7,8 +7,8 @@ from relay_fakes import Gate
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.protocol.motors import DAMPING_KD, JOINT_INDEX
+from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.lowcmd import EXIT_BURST, LowCmdRelay
 
 KNEE = ["left_knee_joint"], [0.5], [], [], [100.0], [1.0]

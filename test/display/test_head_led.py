@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.relay.head_led import (
+from g1_mode_manager.display.head_led import (
     DEFAULT_LOOKS,
     OFF,
     REFRESH_S,
