@@ -26,7 +26,6 @@ from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import HeadLed, parse_looks
 from g1_mode_manager.node.diagnostics import build_diagnostics
 from g1_mode_manager.node.estop import EstopEndpoint
-from g1_mode_manager.node.loco_commands import run_loco_command
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
@@ -35,6 +34,7 @@ from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.link_health import LinkHealth
+from g1_mode_manager.relay.loco_command import run_loco_command
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
