@@ -22,7 +22,6 @@ from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort, VoicePort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
-from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import HeadLed, parse_looks
 from g1_mode_manager.node.diagnostics import build_diagnostics
 from g1_mode_manager.node.estop import EstopEndpoint
@@ -95,8 +94,7 @@ class ModeManagerNode(Node):
         self._service_side.node.create_service(LocoCommand, self._service_side.name_under_main("loco_command"),
                                            self._on_loco_command, callback_group=services)
 
-        limits = VelocityLimits(s.max_vx, s.max_vy, s.max_wz, s.max_ax, s.max_ay, s.max_aw)
-        self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=limits,
+        self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=s.velocity_limits(),
                                     timeout_s=s.cmd_vel_timeout, move_duration_s=s.move_duration_s,
                                     rate_hz=s.cmd_vel_rate_hz, max_rate_hz=s.cmd_vel_max_rate_hz,
                                     on_error=self._worker_error)

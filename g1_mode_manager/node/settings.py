@@ -1,4 +1,10 @@
-"""Parameters of the mode manager node, declared up front with descriptions and ranges."""
+"""Parameters of the mode manager node, declared up front with descriptions and ranges.
+
+:class:`Settings` is the one home of every parameter's default: the relays, the head LED and the velocity
+limits take their values from it (none has a default of its own that could disagree). The e-stop's
+timings are named from EstopTiming, whose defaults the mode machine also uses when built without the node.
+config/mode_manager.yaml repeats each default (test/node/test_settings_yaml.py keeps the two equal).
+"""
 
 from __future__ import annotations
 
@@ -10,7 +16,7 @@ from rclpy.node import Node
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
-from g1_mode_manager.display.head_led import DEFAULT_LOOKS
+from g1_mode_manager.display.head_led import LedLook
 
 
 @dataclass(frozen=True)
@@ -24,12 +30,12 @@ class Settings:
     cmd_vel_rate_hz: float = 10.0
     cmd_vel_max_rate_hz: float = 50.0
     move_duration_s: float = 1.0
-    max_vx: float = VelocityLimits.max_vx
-    max_vy: float = VelocityLimits.max_vy
-    max_wz: float = VelocityLimits.max_wz
-    max_ax: float = VelocityLimits.max_ax
-    max_ay: float = VelocityLimits.max_ay
-    max_aw: float = VelocityLimits.max_aw
+    max_vx: float = 0.8
+    max_vy: float = 0.4
+    max_wz: float = 1.0
+    max_ax: float = 1.5
+    max_ay: float = 1.0
+    max_aw: float = 3.0
     arm_ramp_time_s: float = 2.0
     arm_cmd_timeout_s: float = 1.0
     arm_rate_hz: float = 50.0
@@ -51,11 +57,11 @@ class Settings:
     # --- issue 11: head LED / TTS, joint states + IMU, stamped cmd_vel ---
     head_led_enabled: bool = True
     head_led_rate_hz: float = 10.0
-    head_led_uninitialized: str = DEFAULT_LOOKS[Mode.UNINITIALIZED]
-    head_led_idle: str = DEFAULT_LOOKS[Mode.IDLE]
-    head_led_high_level: str = DEFAULT_LOOKS[Mode.HIGH_LEVEL]
-    head_led_low_level: str = DEFAULT_LOOKS[Mode.LOW_LEVEL]
-    head_led_emergency: str = DEFAULT_LOOKS[Mode.EMERGENCY]
+    head_led_uninitialized: str = "0 0 0 solid"
+    head_led_idle: str = "0 0 255 solid"
+    head_led_high_level: str = "0 255 0 pulse 2.0"
+    head_led_low_level: str = "255 120 0 pulse 1.0"
+    head_led_emergency: str = "255 0 0 flash 0.2"
     announce_modes: bool = False
     voice_timeout_s: float = 0.5
     joint_state_rate_hz: float = 0.0
@@ -66,11 +72,18 @@ class Settings:
                            total_s=self.estop_timeout_s, verify_period_s=self.estop_verify_period_s,
                            belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
 
+    def velocity_limits(self) -> VelocityLimits:
+        return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_aw)
+
     def led_looks(self) -> dict[Mode, str]:
         """The head LED table (issue 11): one 'R G B pattern period' text per mode."""
-        return {Mode.UNINITIALIZED: self.head_led_uninitialized, Mode.IDLE: self.head_led_idle,
-                Mode.HIGH_LEVEL: self.head_led_high_level, Mode.LOW_LEVEL: self.head_led_low_level,
-                Mode.EMERGENCY: self.head_led_emergency}
+        return {mode: getattr(self, name) for mode, name in LED_PARAMETERS.items()}
+
+
+#: The parameter that holds each mode's head LED look.
+LED_PARAMETERS: dict[Mode, str] = {Mode.UNINITIALIZED: "head_led_uninitialized", Mode.IDLE: "head_led_idle",
+                                   Mode.HIGH_LEVEL: "head_led_high_level", Mode.LOW_LEVEL: "head_led_low_level",
+                                   Mode.EMERGENCY: "head_led_emergency"}
 
 
 _DESCRIPTIONS: dict[str, str] = {
@@ -153,10 +166,19 @@ def _descriptor(name: str, default: object) -> ParameterDescriptor:
 
 
 def declare_settings(node: Node) -> Settings:
-    """Declare every parameter (read-only: they are read once at start) and return their values."""
+    """Declare every parameter (read-only: they are read once at start) and return their values.
+
+    A bad value fails here, at start, with an error naming the parameter: rclpy raises for a wrong type or
+    a value out of range, and this raises ValueError for a head LED look it cannot read.
+    """
     values = {}
     for f in fields(Settings):
         default = f.default
         node.declare_parameter(f.name, default, _descriptor(f.name, default))
         values[f.name] = node.get_parameter(f.name).value
+    for name in LED_PARAMETERS.values():
+        try:
+            LedLook.parse(values[name])
+        except ValueError as exc:
+            raise ValueError(f"parameter {name}: {exc}") from None
     return Settings(**values)

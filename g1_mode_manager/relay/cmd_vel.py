@@ -53,8 +53,8 @@ class CmdVelRelay:
     """
 
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
-                 limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float = 20.0,
-                 max_rate_hz: float = 50.0, on_error: Callable[[BaseException], None] | None = None,
+                 limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float,
+                 max_rate_hz: float, on_error: Callable[[BaseException], None] | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         if not (rate_hz > 0.0 and max_rate_hz > 0.0):
             raise ValueError(f"cmd_vel rates must be > 0 Hz, got {rate_hz} and {max_rate_hz}")

@@ -22,9 +22,9 @@ PERIOD = 0.05  # rate_hz 20: the limiter's largest dt
 STOP = (0.0, 0.0, 0.0, 1.0)
 
 
-def _relay(port, gate, events, clock, timeout_s=0.3, **kw) -> CmdVelRelay:
+def _relay(port, gate, events, clock, timeout_s=0.3, max_rate_hz=50.0) -> CmdVelRelay:
     return CmdVelRelay(port, gate, LinkHealth(port, gate, 0.5), events, limits=LIMITS, timeout_s=timeout_s,
-                       move_duration_s=1.0, rate_hz=1.0 / PERIOD, clock=clock, **kw)
+                       move_duration_s=1.0, rate_hz=1.0 / PERIOD, max_rate_hz=max_rate_hz, clock=clock)
 
 
 def _moves(port) -> list[tuple]:
@@ -182,7 +182,7 @@ def test_move_lease_longer_than_two_seconds_is_refused(events, clock, duration) 
     port = FakeRobotPort()
     with pytest.raises(ValueError, match="move duration"):
         CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
-                    limits=LIMITS, timeout_s=0.5, move_duration_s=duration)
+                    limits=LIMITS, timeout_s=0.5, move_duration_s=duration, rate_hz=20.0, max_rate_hz=50.0)
 
 
 def test_nan_sends_zero_and_huge_is_clamped(events, logs, clock) -> None:
@@ -257,7 +257,8 @@ def test_ramp_steps_every_50_ms_a_steady_move_at_the_keep_alive_and_the_watchdog
     command, every 100 ms; and silence is acted on at the watchdog's deadline, not at the next tick."""
     port = FakeRobotPort()
     relay = CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
-                        limits=LIMITS, timeout_s=0.5, move_duration_s=1.0, rate_hz=10.0, clock=clock)  # fmt: skip
+                        limits=LIMITS, timeout_s=0.5, move_duration_s=1.0, rate_hz=10.0, max_rate_hz=50.0,
+                        clock=clock)  # fmt: skip
     relay.submit(0.1, 0.0, 0.0)
     relay.step()  # first step of the ramp: 0.05 of 0.1 (1 m/s^2 over 50 ms)
     assert [m[0] for m in _moves(port)] == pytest.approx([0.05])

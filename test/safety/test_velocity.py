@@ -1,6 +1,7 @@
 """cmd_vel sanitising and acceleration limiting."""
 
 import math
+from dataclasses import replace
 
 import pytest
 from hypothesis import given
@@ -73,9 +74,9 @@ def test_acceleration_limiter_never_jumps_more_than_allowed(targets) -> None:
 
 def test_limits_must_be_positive() -> None:
     with pytest.raises(ValueError, match="max_vx"):
-        VelocityLimits(max_vx=0.0)
+        replace(LIMITS, max_vx=0.0)
     with pytest.raises(ValueError, match="max_aw"):
-        VelocityLimits(max_aw=math.nan)
+        replace(LIMITS, max_aw=math.nan)
 
 
 def test_limiter_dt_is_clamped_and_propose_does_not_advance() -> None:
