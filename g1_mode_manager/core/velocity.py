@@ -53,7 +53,7 @@ class VelocityLimits:
     max_wz: float
     max_ax: float
     max_ay: float
-    max_aw: float
+    max_awz: float
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
@@ -123,7 +123,7 @@ class AccelerationLimiter:
         return Velocity(
             toward(self._current.vx, target.vx, lim.max_ax),
             toward(self._current.vy, target.vy, lim.max_ay),
-            toward(self._current.wz, target.wz, lim.max_aw),
+            toward(self._current.wz, target.wz, lim.max_awz),
         )
 
     def commit(self, sent: Velocity) -> None:

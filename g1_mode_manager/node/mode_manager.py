@@ -95,7 +95,7 @@ class ModeManagerNode(Node):
                                            self._on_loco_command, callback_group=services)
 
         self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=s.velocity_limits(),
-                                    timeout_s=s.cmd_vel_timeout, move_duration_s=s.move_duration_s,
+                                    timeout_s=s.cmd_vel_timeout_s, move_duration_s=s.move_duration_s,
                                     rate_hz=s.cmd_vel_rate_hz, max_rate_hz=s.cmd_vel_max_rate_hz,
                                     on_error=self._worker_error)
         self._arm = ArmRelay(self._port, self.machine, self._link, self._events, ramp_time_s=s.arm_ramp_time_s,
@@ -232,13 +232,13 @@ class ModeManagerNode(Node):
         self._cmd_vel.submit(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
-        """issue 11: a command older than cmd_vel_timeout is dropped and counted (it would restart a
+        """issue 11: a command older than cmd_vel_timeout_s is dropped and counted (it would restart a
         robot the watchdog already stopped)."""
         age_s = stamp_age_s(self.get_clock().now().nanoseconds, msg.header.stamp.sec, msg.header.stamp.nanosec)
-        if age_s > self.settings.cmd_vel_timeout:
+        if age_s > self.settings.cmd_vel_timeout_s:
             self._events.count("cmd_vel_stale_dropped")
-            self._events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout "
-                             f"{self.settings.cmd_vel_timeout:.3f} s)")
+            self._events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout_s "
+                             f"{self.settings.cmd_vel_timeout_s:.3f} s)")
             return
         t = msg.twist
         self._cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)

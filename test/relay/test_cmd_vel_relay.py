@@ -17,7 +17,7 @@ from g1_mode_manager.relay.cmd_vel import STOP_ATTEMPTS, CmdVelRelay
 from g1_mode_manager.relay.link_health import LinkHealth
 from support.mode_manager import wait_until
 
-LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)
+LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_awz=2.0)
 PERIOD = 0.05  # rate_hz 20: the limiter's largest dt
 STOP = (0.0, 0.0, 0.0, 1.0)
 

@@ -17,7 +17,7 @@ from g1_mode_manager.core.velocity import (
     sanitize,
 )
 
-LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)
+LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_awz=2.0)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
@@ -68,15 +68,15 @@ def test_acceleration_limiter_never_jumps_more_than_allowed(targets) -> None:
         cur = limiter.step(Velocity(vx, vy, wz), dt)
         assert abs(cur.vx - prev.vx) <= LIMITS.max_ax * dt + 1e-12
         assert abs(cur.vy - prev.vy) <= LIMITS.max_ay * dt + 1e-12
-        assert abs(cur.wz - prev.wz) <= LIMITS.max_aw * dt + 1e-12
+        assert abs(cur.wz - prev.wz) <= LIMITS.max_awz * dt + 1e-12
         prev = cur
 
 
 def test_limits_must_be_positive() -> None:
     with pytest.raises(ValueError, match="max_vx"):
         replace(LIMITS, max_vx=0.0)
-    with pytest.raises(ValueError, match="max_aw"):
-        replace(LIMITS, max_aw=math.nan)
+    with pytest.raises(ValueError, match="max_awz"):
+        replace(LIMITS, max_awz=math.nan)
 
 
 def test_limiter_dt_is_clamped_and_propose_does_not_advance() -> None:
