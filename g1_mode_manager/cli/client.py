@@ -14,7 +14,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_srvs.srv import Trigger
 
-from g1_mode_manager.node.mode_manager import MODE_QOS
+from g1_mode_manager.topic_qos import MODE_QOS
 
 
 def default_discovery_to_localhost() -> None:

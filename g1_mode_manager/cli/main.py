@@ -6,6 +6,7 @@ import argparse
 import sys
 
 from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_localhost
+from g1_mode_manager.core.loco_verbs import LOCO_VERBS
 
 
 def _print_mode(msg) -> None:
@@ -28,11 +29,11 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("set-mode", help="request a mode: idle, high_level, low_level, emergency")
     p.add_argument("name")
     sub.add_parser("estop", help="emergency stop (Damp); the mode stays EMERGENCY")
-    p = sub.add_parser("loco", help="built-in controller command: damp, stand_up, start, sit, squat, high_stand, "
-                                    "low_stand, wave_hand, wave_and_turn, shake_hand 0|1, ...")
+    p = sub.add_parser("loco", help=f"built-in controller command: {', '.join(LOCO_VERBS)}")
     p.add_argument("command")
+    ranges = ", ".join(f"{name} {v.values.start}..{v.values.stop - 1}" for name, v in LOCO_VERBS.items() if v.values)
     p.add_argument("value", nargs="?", type=int, default=0,
-                   help="speed_mode 0..3, continuous_gait 0|1, shake_hand 0 (hold out) | 1 (withdraw)")
+                   help=f"{ranges} (shake_hand 0 holds the hand out, 1 withdraws it)")
     sub.add_parser("drive", help="keyboard teleop on <namespace of --manager>/cmd_vel")
     args = parser.parse_args(argv)
 

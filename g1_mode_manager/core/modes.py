@@ -57,8 +57,3 @@ def allows_loco_commands(mode: Mode) -> bool:
 def allows_low_level_commands(mode: Mode) -> bool:
     """rt/lowcmd commands pass only in LOW_LEVEL."""
     return mode is Mode.LOW_LEVEL
-
-
-def is_safe(mode: Mode) -> bool:
-    """Modes in which nothing but safety actions reaches the robot."""
-    return mode in (Mode.UNINITIALIZED, Mode.IDLE, Mode.EMERGENCY)

@@ -12,18 +12,37 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
+from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND, describe_code
+
 
 class RobotError(Exception):
-    """A robot call failed: the call's name, the robot's return code, and why."""
+    """A robot call failed: the call's name, the robot's return code, and why.
+
+    Callers ask the error what the failure means for the robot (:attr:`maybe_delivered`,
+    :attr:`not_sent`, :attr:`transport`) instead of knowing the SDK's return codes.
+    """
 
     def __init__(self, call: str, code: int, detail: str = "") -> None:
-        from g1_mode_manager.protocol.api_ids import describe_code
-
         self.call = call
         self.code = code
         self.detail = detail
         text = f"{call} failed: {describe_code(code)}"
         super().__init__(f"{text}: {detail}" if detail else text)
+
+    @property
+    def not_sent(self) -> bool:
+        """The request never left this process (no server matched): the robot cannot be acting on it."""
+        return self.code == ERR_CLIENT_SEND
+
+    @property
+    def maybe_delivered(self) -> bool:
+        """The request went out but its answer was lost (timeout): the robot may be acting on it."""
+        return self.code == ERR_CLIENT_API_TIMEOUT
+
+    @property
+    def transport(self) -> bool:
+        """Lost on the way (not sent, or the answer lost), not refused by the robot: sending again may work."""
+        return self.not_sent or self.maybe_delivered
 
 
 @runtime_checkable
@@ -88,6 +107,13 @@ class PendingReply(Protocol):
         """Block until the robot answered or the call's timeout passed; raises RobotError on failure."""
 
 
+class VoicePort(Protocol):
+    """The part of the robot's voice service the head LED needs (sdk.voice_client.VoiceClient)."""
+
+    def set_led(self, r: int, g: int, b: int) -> None: ...
+    def tts(self, text: str) -> None: ...
+
+
 @runtime_checkable
 class RobotPort(ModePort, Protocol):
     """Everything the node sends to or reads from the robot."""
@@ -136,6 +162,15 @@ class RobotPort(ModePort, Protocol):
 
     def lowstate_receiving(self) -> bool:
         """True while rt/lowstate is subscribed (connected and wanted)."""
+
+    def lowstate_data(self) -> tuple[bytes, int] | None:
+        """The serialised latest rt/lowstate and how many arrived so far; None before the first (or on a
+        port without the raw stream). Decoded (protocol.lowstate_fields) only by whoever publishes it."""
+
+    # --- signalling ------------------------------------------------------------------------
+    def voice(self, timeout_s: float = 0.5) -> VoicePort | None:
+        """The voice service (head LED, TTS) with calls of ``timeout_s``; None while there is none (not
+        connected yet, closed, or a port without one)."""
 
     def close(self) -> None:
         """Stop readers and writers."""

@@ -43,14 +43,17 @@ def check_move_duration(duration_s: float) -> float:
 
 @dataclass(frozen=True)
 class VelocityLimits:
-    """Per-axis magnitude limits (m/s, m/s, rad/s) and acceleration limits (m/s^2, m/s^2, rad/s^2)."""
+    """Per-axis magnitude limits (m/s, m/s, rad/s) and acceleration limits (m/s^2, m/s^2, rad/s^2).
 
-    max_vx: float = 0.8
-    max_vy: float = 0.4
-    max_wz: float = 1.0
-    max_ax: float = 1.5
-    max_ay: float = 1.0
-    max_aw: float = 3.0
+    No defaults: the node's parameters (node/settings.py) are the one place they are chosen.
+    """
+
+    max_vx: float
+    max_vy: float
+    max_wz: float
+    max_ax: float
+    max_ay: float
+    max_awz: float
 
     def __post_init__(self) -> None:
         for name, value in vars(self).items():
@@ -83,7 +86,7 @@ def sanitize(vx: float, vy: float, wz: float, limits: VelocityLimits) -> Sanitiz
     return Sanitized(clamped, rejected=False, clamped=was_clamped, reason=reason)
 
 
-class RateLimiter:
+class AccelerationLimiter:
     """Moves the commanded velocity toward the target by at most the acceleration limit per step.
 
     ``propose`` computes the next command without changing state; ``commit`` records it once the
@@ -120,7 +123,7 @@ class RateLimiter:
         return Velocity(
             toward(self._current.vx, target.vx, lim.max_ax),
             toward(self._current.vy, target.vy, lim.max_ay),
-            toward(self._current.wz, target.wz, lim.max_aw),
+            toward(self._current.wz, target.wz, lim.max_awz),
         )
 
     def commit(self, sent: Velocity) -> None:

@@ -6,7 +6,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.node.link import LinkReport
+from g1_mode_manager.relay.link_health import LinkReport
 
 
 def _kv(key: str, value: object) -> KeyValue:

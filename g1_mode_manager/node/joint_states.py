@@ -7,13 +7,12 @@ published again (a silent robot publishes nothing rather than stale joint states
 
 from __future__ import annotations
 
-from typing import Any
-
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
+from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.protocol.lowstate_fields import decode_fields
 from g1_mode_manager.protocol.motors import JOINT_NAMES
-from g1_mode_manager.sdk.lowstate_fields import decode_fields
 
 #: frame_id of ~/imu: the G1's IMU sits in the pelvis (the Menagerie model's imu site is there too).
 IMU_FRAME = "imu_link"
@@ -22,7 +21,7 @@ IMU_FRAME = "imu_link"
 class LowStatePublisher:
     """Publishes ``joint_states`` (relative: a namespace gives each robot its own) and ``~/imu``."""
 
-    def __init__(self, node: Node, port: Any) -> None:
+    def __init__(self, node: Node, port: RobotPort) -> None:
         self._node = node
         self._port = port
         self._joints = node.create_publisher(JointState, "joint_states", 10)
@@ -33,8 +32,7 @@ class LowStatePublisher:
         self._last_count = -1
 
     def publish(self) -> None:
-        read = getattr(self._port, "lowstate_data", None)
-        latest = None if read is None else read()
+        latest = self._port.lowstate_data()
         if latest is None:
             return
         data, count = latest

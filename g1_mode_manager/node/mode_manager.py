@@ -16,19 +16,15 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.duration import Duration
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.core.port import RobotPort, VoicePort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
-from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.display.head_led import HeadLed, parse_looks
 from g1_mode_manager.node.diagnostics import build_diagnostics
 from g1_mode_manager.node.estop import EstopEndpoint
-from g1_mode_manager.node.link import LinkHealth
-from g1_mode_manager.node.loco_commands import run_loco_command
-from g1_mode_manager.node.lowstate_demand import LowStateDemand
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
@@ -36,15 +32,15 @@ from g1_mode_manager.node.twist_cdr import twist_velocity
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
-from g1_mode_manager.relay.head_led import HeadLed, VoicePort, parse_looks
+from g1_mode_manager.relay.link_health import LinkHealth
+from g1_mode_manager.relay.loco_command import run_loco_command
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
+from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.stamps import stamp_age_s
+from g1_mode_manager.topic_qos import MODE_QOS
 
 PortFactory = Callable[[Settings], RobotPort]
-
-#: ~/mode: a late `ros2 topic echo` still sees the current mode.
-MODE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 def unitree_port(settings: Settings) -> RobotPort:
@@ -98,9 +94,8 @@ class ModeManagerNode(Node):
         self._service_side.node.create_service(LocoCommand, self._service_side.name_under_main("loco_command"),
                                            self._on_loco_command, callback_group=services)
 
-        limits = VelocityLimits(s.max_vx, s.max_vy, s.max_wz, s.max_ax, s.max_ay, s.max_aw)
-        self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=limits,
-                                    timeout_s=s.cmd_vel_timeout, move_duration_s=s.move_duration_s,
+        self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=s.velocity_limits(),
+                                    timeout_s=s.cmd_vel_timeout_s, move_duration_s=s.move_duration_s,
                                     rate_hz=s.cmd_vel_rate_hz, max_rate_hz=s.cmd_vel_max_rate_hz,
                                     on_error=self._worker_error)
         self._arm = ArmRelay(self._port, self.machine, self._link, self._events, ramp_time_s=s.arm_ramp_time_s,
@@ -237,21 +232,20 @@ class ModeManagerNode(Node):
         self._cmd_vel.submit(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
-        """issue 11: a command older than cmd_vel_timeout is dropped and counted (it would restart a
+        """issue 11: a command older than cmd_vel_timeout_s is dropped and counted (it would restart a
         robot the watchdog already stopped)."""
         age_s = stamp_age_s(self.get_clock().now().nanoseconds, msg.header.stamp.sec, msg.header.stamp.nanosec)
-        if age_s > self.settings.cmd_vel_timeout:
+        if age_s > self.settings.cmd_vel_timeout_s:
             self._events.count("cmd_vel_stale_dropped")
-            self._events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout "
-                             f"{self.settings.cmd_vel_timeout:.3f} s)")
+            self._events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout_s "
+                             f"{self.settings.cmd_vel_timeout_s:.3f} s)")
             return
         t = msg.twist
         self._cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
 
     def _voice_port(self) -> VoicePort | None:
         """issue 11: the robot's voice service once the port is connected (ports without one: None)."""
-        voice = getattr(self._port, "voice", None)
-        return None if voice is None else voice(self.settings.voice_timeout_s)
+        return self._port.voice(self.settings.voice_timeout_s)
 
     def _on_arm_cmd(self, msg: JointState) -> None:
         self._arm.submit(list(msg.name), list(msg.position))

@@ -1,16 +1,24 @@
-"""Parameters of the mode manager node, declared up front with descriptions and ranges."""
+"""Parameters of the mode manager node, declared up front with descriptions and ranges.
+
+:class:`Settings` is the one home of every parameter's default: the relays, the head LED and the velocity
+limits take their values from it (none has a default of its own that could disagree). The e-stop's
+timings are named from EstopTiming, whose defaults the mode machine also uses when built without the node.
+config/mode_manager.yaml repeats each default (test/node/test_settings_yaml.py keeps the two equal).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
-from g1_mode_manager.relay.head_led import DEFAULT_LOOKS
+from g1_mode_manager.display.head_led import LedLook
 
 
 @dataclass(frozen=True)
@@ -20,16 +28,16 @@ class Settings:
     rpc_timeout_s: float = 1.0
     select_timeout_s: float = 10.0
     release_timeout_s: float = 5.0
-    cmd_vel_timeout: float = 0.5
+    cmd_vel_timeout_s: float = 0.5
     cmd_vel_rate_hz: float = 10.0
     cmd_vel_max_rate_hz: float = 50.0
     move_duration_s: float = 1.0
-    max_vx: float = VelocityLimits.max_vx
-    max_vy: float = VelocityLimits.max_vy
-    max_wz: float = VelocityLimits.max_wz
-    max_ax: float = VelocityLimits.max_ax
-    max_ay: float = VelocityLimits.max_ay
-    max_aw: float = VelocityLimits.max_aw
+    max_vx: float = 0.8
+    max_vy: float = 0.4
+    max_wz: float = 1.0
+    max_ax: float = 1.5
+    max_ay: float = 1.0
+    max_awz: float = 3.0
     arm_ramp_time_s: float = 2.0
     arm_cmd_timeout_s: float = 1.0
     arm_rate_hz: float = 50.0
@@ -51,11 +59,11 @@ class Settings:
     # --- issue 11: head LED / TTS, joint states + IMU, stamped cmd_vel ---
     head_led_enabled: bool = True
     head_led_rate_hz: float = 10.0
-    head_led_uninitialized: str = DEFAULT_LOOKS[Mode.UNINITIALIZED]
-    head_led_idle: str = DEFAULT_LOOKS[Mode.IDLE]
-    head_led_high_level: str = DEFAULT_LOOKS[Mode.HIGH_LEVEL]
-    head_led_low_level: str = DEFAULT_LOOKS[Mode.LOW_LEVEL]
-    head_led_emergency: str = DEFAULT_LOOKS[Mode.EMERGENCY]
+    head_led_uninitialized: str = "0 0 0 solid"
+    head_led_idle: str = "0 0 255 solid"
+    head_led_high_level: str = "0 255 0 pulse 2.0"
+    head_led_low_level: str = "255 120 0 pulse 1.0"
+    head_led_emergency: str = "255 0 0 flash 0.2"
     announce_modes: bool = False
     voice_timeout_s: float = 0.5
     joint_state_rate_hz: float = 0.0
@@ -66,11 +74,18 @@ class Settings:
                            total_s=self.estop_timeout_s, verify_period_s=self.estop_verify_period_s,
                            belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
 
+    def velocity_limits(self) -> VelocityLimits:
+        return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
+
     def led_looks(self) -> dict[Mode, str]:
         """The head LED table (issue 11): one 'R G B pattern period' text per mode."""
-        return {Mode.UNINITIALIZED: self.head_led_uninitialized, Mode.IDLE: self.head_led_idle,
-                Mode.HIGH_LEVEL: self.head_led_high_level, Mode.LOW_LEVEL: self.head_led_low_level,
-                Mode.EMERGENCY: self.head_led_emergency}
+        return {mode: getattr(self, name) for mode, name in LED_PARAMETERS.items()}
+
+
+#: The parameter that holds each mode's head LED look.
+LED_PARAMETERS: dict[Mode, str] = {Mode.UNINITIALIZED: "head_led_uninitialized", Mode.IDLE: "head_led_idle",
+                                   Mode.HIGH_LEVEL: "head_led_high_level", Mode.LOW_LEVEL: "head_led_low_level",
+                                   Mode.EMERGENCY: "head_led_emergency"}
 
 
 _DESCRIPTIONS: dict[str, str] = {
@@ -80,7 +95,7 @@ _DESCRIPTIONS: dict[str, str] = {
     "rpc_timeout_s": "Timeout of one robot RPC (loco and motion switcher calls), s.",
     "select_timeout_s": "How long SelectMode('ai') plus its confirmation may take, s (a real robot takes seconds).",
     "release_timeout_s": "How long ReleaseMode may take until CheckMode reports no service, s.",
-    "cmd_vel_timeout": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
+    "cmd_vel_timeout_s": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
     "cmd_vel_rate_hz": "Keep-alive rate of a steady Move, Hz (a new /cmd_vel is sent at once, a ramp steps at 20 Hz, "
     "the watchdog has its own deadline).",
     "cmd_vel_max_rate_hz": "At most this many Moves per second reach the robot (two may go back to back), whatever "
@@ -92,7 +107,7 @@ _DESCRIPTIONS: dict[str, str] = {
     "max_wz": "Clamp of yaw rate, rad/s.",
     "max_ax": "Forward acceleration limit, m/s^2.",
     "max_ay": "Lateral acceleration limit, m/s^2.",
-    "max_aw": "Yaw acceleration limit, rad/s^2.",
+    "max_awz": "Yaw acceleration limit, rad/s^2.",
     "arm_ramp_time_s": "Time for the rt/arm_sdk blend weight to go 0 -> 1 or 1 -> 0, s.",
     "arm_cmd_timeout_s": "No ~/arm_cmd for this long ramps the arms back to the controller, s.",
     "arm_rate_hz": "Rate of rt/arm_sdk frames while the weight is above zero, Hz.",
@@ -126,7 +141,7 @@ _DESCRIPTIONS: dict[str, str] = {
     "announce_modes": "Announce every mode change through the robot's speaker (TTS).",
     "voice_timeout_s": "Timeout of one head LED or TTS call, s (the LED worker waits, nothing else does).",
     "joint_state_rate_hz": "Rate of joint_states (sensor_msgs/JointState) and ~/imu from rt/lowstate; 0 = off, Hz.",
-    "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout are dropped) "
+    "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }
 
@@ -136,6 +151,11 @@ _RANGES: dict[str, tuple[float, float]] = {
     "joint_state_rate_hz": (0.0, 1000.0),  # 0 = off
     "sportmodestate_rate_hz": (0.0, 1000.0),  # 0 = off
 }
+
+
+#: Renamed parameters, old name -> new name. For one release the old name is still read, so that a params
+#: file written for the previous one keeps its meaning: set, it wins over the new name, with a warning.
+RENAMED: dict[str, str] = {"cmd_vel_timeout": "cmd_vel_timeout_s", "max_aw": "max_awz"}
 
 
 def _descriptor(name: str, default: object) -> ParameterDescriptor:
@@ -153,10 +173,42 @@ def _descriptor(name: str, default: object) -> ParameterDescriptor:
 
 
 def declare_settings(node: Node) -> Settings:
-    """Declare every parameter (read-only: they are read once at start) and return their values."""
+    """Declare every parameter (read-only: they are read once at start) and return their values.
+
+    A bad value fails here, at start, with an error naming the parameter: rclpy raises for a wrong type or
+    a value out of range, and this raises ValueError for a head LED look it cannot read.
+    """
+    from_old_names = _read_old_names(node)
     values = {}
     for f in fields(Settings):
         default = f.default
-        node.declare_parameter(f.name, default, _descriptor(f.name, default))
+        if f.name in from_old_names:  # declared with the old name's value: `ros2 param get` shows what is used
+            node.declare_parameter(f.name, from_old_names[f.name], _descriptor(f.name, default), ignore_override=True)
+        else:
+            node.declare_parameter(f.name, default, _descriptor(f.name, default))
         values[f.name] = node.get_parameter(f.name).value
+    for name in LED_PARAMETERS.values():
+        try:
+            LedLook.parse(values[name])
+        except ValueError as exc:
+            raise ValueError(f"parameter {name}: {exc}") from None
     return Settings(**values)
+
+
+def _read_old_names(node: Node) -> dict[str, object]:
+    """Declare each old name (typed, without a value); new name -> value for each one the user set, warning
+    with both names."""
+    taken: dict[str, object] = {}
+    for old, new in RENAMED.items():
+        default = next(f.default for f in fields(Settings) if f.name == new)
+        desc = _descriptor(new, default)
+        desc.description = f"Old name of {new} (read for one more release; set, it wins over {new})."
+        node.declare_parameter(old, Parameter.Type.from_parameter_value(default), desc)
+        try:
+            value = node.get_parameter(old).value
+        except ParameterUninitializedException:  # not set: nothing to take
+            continue
+        node.get_logger().warn(f"parameter {old!r} is deprecated and will be removed: rename it {new!r} "
+                               f"(taking {old}={value!r} as {new})")
+        taken[new] = value
+    return taken

@@ -47,6 +47,8 @@ ARM_TASK_WAVE: Final = 0
 ARM_TASK_WAVE_AND_TURN: Final = 1
 ARM_TASK_SHAKE_HAND_OUT: Final = 2  # first stage: the hand held out ...
 ARM_TASK_SHAKE_HAND_BACK: Final = 3  # ... second stage: withdrawn
+#: ShakeHand(stage): the task of each stage, in order.
+ARM_TASK_SHAKE_HAND_STAGES: Final = (ARM_TASK_SHAKE_HAND_OUT, ARM_TASK_SHAKE_HAND_BACK)
 #: SetStandHeight's HighStand / LowStand values (a uint32 all ones: "the highest"; 0: "the lowest").
 STAND_HEIGHT_HIGH: Final = 0xFFFFFFFF
 STAND_HEIGHT_LOW: Final = 0

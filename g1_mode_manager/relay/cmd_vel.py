@@ -20,7 +20,7 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import PendingReply, RobotError, RobotPort
 from g1_mode_manager.core.velocity import (
     ZERO,
-    RateLimiter,
+    AccelerationLimiter,
     Sanitized,
     Velocity,
     VelocityLimits,
@@ -29,7 +29,6 @@ from g1_mode_manager.core.velocity import (
     sanitize,
 )
 from g1_mode_manager.core.watchdog import Watchdog
-from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
@@ -54,8 +53,8 @@ class CmdVelRelay:
     """
 
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
-                 limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float = 20.0,
-                 max_rate_hz: float = 50.0, on_error: Callable[[BaseException], None] | None = None,
+                 limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float,
+                 max_rate_hz: float, on_error: Callable[[BaseException], None] | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         if not (rate_hz > 0.0 and max_rate_hz > 0.0):
             raise ValueError(f"cmd_vel rates must be > 0 Hz, got {rate_hz} and {max_rate_hz}")
@@ -67,7 +66,7 @@ class CmdVelRelay:
         self._period_s = 1.0 / rate_hz
         self._ramp_s = min(self._period_s, RAMP_PERIOD_S)
         self._max_rate_hz = max_rate_hz
-        self._limiter = RateLimiter(limits, max_dt_s=self._ramp_s)
+        self._limiter = AccelerationLimiter(limits, max_dt_s=self._ramp_s)
         self._watchdog = Watchdog(timeout_s, clock)
         self._move_duration_s = check_move_duration(move_duration_s)
         self._on_error = on_error
@@ -240,7 +239,7 @@ class CmdVelRelay:
         self._events.count("moves_sent")
 
     def _move_failed(self, exc: RobotError, v: Velocity) -> None:
-        lost = exc.code == ERR_CLIENT_API_TIMEOUT  # sent, answer lost: it may be running
+        lost = exc.maybe_delivered  # sent, answer lost: it may be running
         self._maybe_moving = self._maybe_moving or (lost and not v.is_zero())
         self._limiter.reset()
         self._last_ack = None
@@ -258,7 +257,7 @@ class CmdVelRelay:
             self._port.set_velocity(0.0, 0.0, 0.0, self._move_duration_s)
         except RobotError as exc:
             self._events.count("rpc_failures")
-            if exc.code in (ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND) and self._stop_attempts < STOP_ATTEMPTS:
+            if exc.transport and self._stop_attempts < STOP_ATTEMPTS:
                 self._events.log("error", "stop_move_failed",
                                  f"StopMove ({self._stop_reason}) failed: {exc}; sending it again")
                 return False

@@ -29,7 +29,7 @@ class LowCmdRelay:
     """
 
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
-                 silence_timeout_s: float, exit_damping_s: float = 0.2,
+                 silence_timeout_s: float, exit_damping_s: float,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self._port = port
         self._gate = gate

@@ -145,7 +145,7 @@ class LocoClient(RpcClient):
     def shake_hand(self, stage: int, *, timeout_s: float | None = None) -> None:
         """Stage 0 holds the hand out (task 2), stage 1 withdraws it (task 3); the SDK's toggling form
         (no stage) keeps state in the client, which a restart would lose, so the stage is explicit."""
-        if stage not in (0, 1):
+        stages = api.ARM_TASK_SHAKE_HAND_STAGES
+        if stage not in range(len(stages)):
             raise ValueError(f"ShakeHand: stage must be 0 or 1, got {stage!r}")
-        task = api.ARM_TASK_SHAKE_HAND_OUT if stage == 0 else api.ARM_TASK_SHAKE_HAND_BACK
-        self.set_arm_task(task, timeout_s=timeout_s)
+        self.set_arm_task(stages[stage], timeout_s=timeout_s)

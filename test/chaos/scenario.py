@@ -25,7 +25,7 @@ LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand")
 KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd")
 #: The node's stream limits (defaults of config/mode_manager.yaml), for the judge.
 ARM_STEP = 1.0 / (2.0 * 50.0)  # arm_ramp_time_s 2 s at 50 Hz: the most the weight may change per frame
-MOVE_STEP = (1.5 * 0.05, 1.0 * 0.05, 3.0 * 0.05)  # max_ax, max_ay, max_aw times one 20 Hz tick
+MOVE_STEP = (1.5 * 0.05, 1.0 * 0.05, 3.0 * 0.05)  # max_ax, max_ay, max_awz times one 20 Hz tick
 GRACE_S = 0.06  # a frame in flight, plus one rt/sportmodestate period, after a change of state
 
 

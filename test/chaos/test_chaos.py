@@ -29,7 +29,7 @@ from std_srvs.srv import Trigger
 
 from chaos.scenario import Claims, judge, plan, run_actions
 from e2e.conftest import Stack
-from g1_mode_manager.node.mode_manager import MODE_QOS
+from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import RosClient, start_mode_manager, wait_until
 from support.sim_bridge import shared_sim_status, start_sim_bridge
 from support.sim_record import SimRecord

@@ -12,8 +12,8 @@ from g1_mode_manager_msgs.msg import JointCommand, Mode
 from geometry_msgs.msg import Twist
 from sensor_msgs.msg import JointState
 
-from g1_mode_manager.node.mode_manager import MODE_QOS
 from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.sim_record import is_damp, requests, velocity_of
 

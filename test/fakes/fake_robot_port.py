@@ -12,7 +12,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from fakes.fake_robot import FakeRobot
-from g1_mode_manager.core.port import MotorCommand, RobotError, SportState
+from g1_mode_manager.core.port import MotorCommand, RobotError, SportState, VoicePort
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
@@ -55,6 +55,8 @@ class FakeRobotPort(FakeRobot):
         self.lowstate_wanted = True
         #: An event: Move replies written while it is in place wait until it is set (at most 10 s).
         self.move_reply_hold: threading.Event | None = None
+        self.lowstate_sample: tuple[bytes, int] | None = None  # raw rt/lowstate: none unless a test sets it
+        self.voice_port: VoicePort | None = None  # no voice service unless a test sets one
 
     def _record(self, name: str, *args: object) -> None:
         code = self.fail_stream.get(name)
@@ -135,3 +137,9 @@ class FakeRobotPort(FakeRobot):
 
     def lowstate_receiving(self) -> bool:
         return self.lowstate_wanted
+
+    def lowstate_data(self) -> tuple[bytes, int] | None:
+        return self.lowstate_sample
+
+    def voice(self, timeout_s: float = 0.5) -> VoicePort | None:
+        return self.voice_port

@@ -25,7 +25,7 @@ def test_fresh_stamped_commands_pass_and_stale_ones_are_dropped_and_counted() ->
     rclpy.init(context=context)
     node = ModeManagerNode(port_factory=lambda _s: port, context=context,
                            parameter_overrides=[Parameter("cmd_vel_stamped", value=True),
-                                                Parameter("cmd_vel_timeout", value=0.5),
+                                                Parameter("cmd_vel_timeout_s", value=0.5),
                                                 Parameter("diagnostics_rate_hz", value=10.0)])  # fmt: skip
     client = rclpy.create_node("stamped_client", context=context)
     executor = MultiThreadedExecutor(num_threads=4, context=context)
@@ -53,7 +53,7 @@ def test_fresh_stamped_commands_pass_and_stale_ones_are_dropped_and_counted() ->
             pub.publish(msg)
 
         for _ in range(10):
-            send(2.0, 0.7)  # stale: older than cmd_vel_timeout
+            send(2.0, 0.7)  # stale: older than cmd_vel_timeout_s
             time.sleep(0.02)
         assert wait_until(lambda: _counter(diags, "cmd_vel_stale_dropped") >= 10, 5.0), _counter(diags, "cmd_vel_stale_dropped")
         assert [s for s in port.stream("set_velocity") if s.args[0] > 0] == []

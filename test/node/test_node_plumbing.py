@@ -22,7 +22,8 @@ from std_srvs.srv import Trigger
 
 from fakes.fake_robot import RELEASED
 from fakes.fake_robot_port import FakeRobotPort
-from g1_mode_manager.node.mode_manager import MODE_QOS, ModeManagerNode
+from g1_mode_manager.node.mode_manager import ModeManagerNode
+from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 
 

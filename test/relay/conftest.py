@@ -1,23 +1,3 @@
-"""Fixtures of the relay tests: collected logs, events without throttling, a settable clock."""
+"""Fixtures of the relay tests (shared with the display tests)."""
 
-from __future__ import annotations
-
-import pytest
-from relay_fakes import Clock
-
-from g1_mode_manager.relay.events import RelayEvents
-
-
-@pytest.fixture
-def logs() -> list[tuple[str, str]]:
-    return []
-
-
-@pytest.fixture
-def events(logs) -> RelayEvents:
-    return RelayEvents(lambda level, text: logs.append((level, text)), throttle_s=0.0)
-
-
-@pytest.fixture
-def clock() -> Clock:
-    return Clock()
+from fakes.worker_fixtures import clock, events, logs  # noqa: F401  (pytest finds fixtures by name)

@@ -1,4 +1,4 @@
-"""Stand-ins the relay tests share: the mode machine's gate and a settable clock."""
+"""Stand-in the relay tests share: the mode machine's gate."""
 
 from __future__ import annotations
 
@@ -53,11 +53,3 @@ class Gate:
         for listener in self.listeners:
             listener(source, target)
         self.mode, self.in_transition = target, False
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t

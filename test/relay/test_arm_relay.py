@@ -13,10 +13,10 @@ from relay_fakes import Gate
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 from g1_mode_manager.protocol.motors import JOINT_INDEX
 from g1_mode_manager.relay.arm import ArmRelay
+from g1_mode_manager.relay.link_health import LinkHealth
 
 PERIOD = 0.02
 MAX_STEP = PERIOD / 1.0  # ramp 1 s at 50 Hz

@@ -14,9 +14,9 @@ from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.machine import ModeMachine, Outcome
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import VelocityLimits
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
+from g1_mode_manager.relay.link_health import LinkHealth
 from support.mode_manager import wait_until
 
 LIMITS = VelocityLimits(0.8, 0.4, 1.0, 1.0, 1.0, 2.0)
@@ -31,7 +31,7 @@ def _walking_with_a_held_reply() -> tuple[ModeMachine, FakeRobotPort, CmdVelRela
     hold = threading.Event()
     port.move_reply_hold = hold
     relay = CmdVelRelay(port, machine, LinkHealth(port, machine, 0.5), RelayEvents(lambda *_: None),
-                        limits=LIMITS, timeout_s=5.0, move_duration_s=1.0, rate_hz=10.0)
+                        limits=LIMITS, timeout_s=5.0, move_duration_s=1.0, rate_hz=10.0, max_rate_hz=50.0)
     machine.add_leave_listener(relay.on_leave)
     relay.start()
     relay.submit(0.5, 0.0, 0.0)

@@ -12,19 +12,19 @@ from relay_fakes import Gate
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import VelocityLimits
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.relay.cmd_vel import STOP_ATTEMPTS, CmdVelRelay
+from g1_mode_manager.relay.link_health import LinkHealth
 from support.mode_manager import wait_until
 
-LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)
+LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_awz=2.0)
 PERIOD = 0.05  # rate_hz 20: the limiter's largest dt
 STOP = (0.0, 0.0, 0.0, 1.0)
 
 
-def _relay(port, gate, events, clock, timeout_s=0.3, **kw) -> CmdVelRelay:
+def _relay(port, gate, events, clock, timeout_s=0.3, max_rate_hz=50.0) -> CmdVelRelay:
     return CmdVelRelay(port, gate, LinkHealth(port, gate, 0.5), events, limits=LIMITS, timeout_s=timeout_s,
-                       move_duration_s=1.0, rate_hz=1.0 / PERIOD, clock=clock, **kw)
+                       move_duration_s=1.0, rate_hz=1.0 / PERIOD, max_rate_hz=max_rate_hz, clock=clock)
 
 
 def _moves(port) -> list[tuple]:
@@ -33,7 +33,7 @@ def _moves(port) -> list[tuple]:
 
 def _run(relay, clock, n, dt=PERIOD) -> None:
     for _ in range(n):
-        clock.t += dt
+        clock.advance(dt)
         relay.step()
 
 
@@ -57,7 +57,7 @@ def test_ramps_at_the_acceleration_limit_latest_wins_and_one_stop_move_on_silenc
     _run(relay, clock, 3)
     assert [m[0] for m in _moves(port)] == pytest.approx([0.05, 0.10, 0.15, 0.20])  # 1 m/s^2 * 0.05 s
     assert all(m[3] == 1.0 for m in _moves(port))
-    clock.t += 1.0  # silence
+    clock.advance(1.0)  # silence
     _run(relay, clock, 5)
     assert _moves(port)[4:] == [STOP]
     assert events.counts()["stop_moves_sent"] == 1
@@ -93,7 +93,7 @@ def test_a_timed_out_move_counts_as_maybe_moving_and_gets_a_stop_move(events, cl
     relay.submit(0.5, 0.0, 0.0)
     relay.step()
     del port.fail_stream["set_velocity"]
-    clock.t += 1.0
+    clock.advance(1.0)
     relay.step()
     assert _moves(port)[-1] == STOP
 
@@ -104,7 +104,7 @@ def test_stop_move_is_repeated_until_acknowledged(events, clock) -> None:
     relay.submit(0.5, 0.0, 0.0)
     relay.step()
     port.fail_stream["set_velocity"] = api_ids.ERR_CLIENT_API_TIMEOUT
-    clock.t += 1.0
+    clock.advance(1.0)
     _run(relay, clock, 2)
     del port.fail_stream["set_velocity"]
     _run(relay, clock, 5)
@@ -117,7 +117,7 @@ def test_stop_move_retries_are_bounded(events, logs, clock) -> None:
     relay.submit(0.5, 0.0, 0.0)
     relay.step()
     port.fail_stream["set_velocity"] = api_ids.ERR_CLIENT_API_TIMEOUT
-    clock.t += 1.0
+    clock.advance(1.0)
     _run(relay, clock, 3 * STOP_ATTEMPTS)
     assert _moves(port)[1:] == [STOP] * STOP_ATTEMPTS
     assert any("stops by itself" in text for _, text in logs)
@@ -182,7 +182,7 @@ def test_move_lease_longer_than_two_seconds_is_refused(events, clock, duration) 
     port = FakeRobotPort()
     with pytest.raises(ValueError, match="move duration"):
         CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
-                    limits=LIMITS, timeout_s=0.5, move_duration_s=duration)
+                    limits=LIMITS, timeout_s=0.5, move_duration_s=duration, rate_hz=20.0, max_rate_hz=50.0)
 
 
 def test_nan_sends_zero_and_huge_is_clamped(events, logs, clock) -> None:
@@ -241,11 +241,11 @@ def test_a_new_command_right_after_a_keep_alive_goes_at_once_and_the_cap_holds_o
     relay.step()
     assert len(_moves(port)) == 2
     assert relay._budget_wait() == pytest.approx(1.0 / 50.0)  # the burst is spent: the next waits 20 ms
-    clock.t += 0.01
+    clock.advance(0.01)
     assert relay._budget_wait() == pytest.approx(0.01)
-    clock.t += 0.01
+    clock.advance(0.01)
     assert relay._budget_wait() == 0.0
-    clock.t += 10.0  # a long pause refills no more than the burst
+    clock.advance(10.0)  # a long pause refills no more than the burst
     relay._spend()
     relay._spend()
     assert relay._budget_wait() == pytest.approx(1.0 / 50.0)
@@ -257,18 +257,19 @@ def test_ramp_steps_every_50_ms_a_steady_move_at_the_keep_alive_and_the_watchdog
     command, every 100 ms; and silence is acted on at the watchdog's deadline, not at the next tick."""
     port = FakeRobotPort()
     relay = CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
-                        limits=LIMITS, timeout_s=0.5, move_duration_s=1.0, rate_hz=10.0, clock=clock)  # fmt: skip
+                        limits=LIMITS, timeout_s=0.5, move_duration_s=1.0, rate_hz=10.0, max_rate_hz=50.0,
+                        clock=clock)  # fmt: skip
     relay.submit(0.1, 0.0, 0.0)
     relay.step()  # first step of the ramp: 0.05 of 0.1 (1 m/s^2 over 50 ms)
     assert [m[0] for m in _moves(port)] == pytest.approx([0.05])
-    assert relay._next_step_in(clock.t) == pytest.approx(0.05)  # still ramping
+    assert relay._next_step_in(clock()) == pytest.approx(0.05)  # still ramping
     for _ in range(2):  # 0.05 s of float clock is a hair less than 0.05: a last step lands exactly on 0.1
-        clock.t += 0.05
+        clock.advance(0.05)
         relay.step()
     assert _moves(port)[-1][0] == 0.1
-    assert relay._next_step_in(clock.t) == pytest.approx(0.1)  # the robot runs the command: keep-alive
-    clock.t += 0.39  # the last command came 0.49 s ago: the watchdog (0.5 s) comes before the next tick
-    assert relay._next_step_in(clock.t - 0.04) == pytest.approx(0.011)
-    clock.t += 0.011
+    assert relay._next_step_in(clock()) == pytest.approx(0.1)  # the robot runs the command: keep-alive
+    clock.advance(0.39)  # the last command came 0.49 s ago: the watchdog (0.5 s) comes before the next tick
+    assert relay._next_step_in(clock() - 0.04) == pytest.approx(0.011)
+    clock.advance(0.011)
     relay.step()
     assert _moves(port)[-1] == STOP  # the watchdog's StopMove, 1 ms after its deadline

@@ -7,8 +7,8 @@ from relay_fakes import Gate
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
-from g1_mode_manager.node.link import LinkHealth
 from g1_mode_manager.protocol.motors import DAMPING_KD, JOINT_INDEX
+from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.lowcmd import EXIT_BURST, LowCmdRelay
 
 KNEE = ["left_knee_joint"], [0.5], [], [], [100.0], [1.0]
@@ -39,7 +39,7 @@ def test_only_in_low_level_and_damps_on_silence(events, clock) -> None:
     assert _frames(port)[-1][JOINT_INDEX["left_knee_joint"]].kp == 100.0
     relay.tick(0.02)  # fresh: no damping frame
     assert len(_frames(port)) == 1
-    clock.t += 1.0
+    clock.advance(1.0)
     relay.tick(0.02)
     assert _is_damping(_frames(port)[-1])
     assert "gains" in relay.submit(["left_knee_joint"], [0.5], [], [], [-1.0], [1.0])
@@ -67,7 +67,7 @@ def test_leaving_low_level_damps_before_the_next_mode_and_idle_keeps_damping_a_w
     assert len(frames) == 1 + EXIT_BURST and all(_is_damping(f) for f in frames[1:])
     relay.tick(0.02)
     assert len(_frames(port)) == 2 + EXIT_BURST and _is_damping(_frames(port)[-1])
-    clock.t += 0.3
+    clock.advance(0.3)
     relay.tick(0.02)
     assert len(_frames(port)) == 2 + EXIT_BURST  # then the robot holds the damping frame
     assert relay.submit(*KNEE) == "mode is IDLE"

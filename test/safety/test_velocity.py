@@ -1,6 +1,7 @@
 """cmd_vel sanitising and acceleration limiting."""
 
 import math
+from dataclasses import replace
 
 import pytest
 from hypothesis import given
@@ -8,7 +9,7 @@ from hypothesis import strategies as st
 
 from g1_mode_manager.core.velocity import (
     MAX_MOVE_DURATION_S,
-    RateLimiter,
+    AccelerationLimiter,
     Velocity,
     VelocityLimits,
     check_move_duration,
@@ -16,7 +17,7 @@ from g1_mode_manager.core.velocity import (
     sanitize,
 )
 
-LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_aw=2.0)
+LIMITS = VelocityLimits(max_vx=0.8, max_vy=0.4, max_wz=1.0, max_ax=1.0, max_ay=1.0, max_awz=2.0)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
@@ -48,8 +49,8 @@ def test_sanitized_output_is_always_finite_and_bounded(vx: float, vy: float, wz:
     assert all(math.isfinite(x) for x in (v.vx, v.vy, v.wz))
 
 
-def test_rate_limiter_ramps_at_the_acceleration_limit() -> None:
-    limiter = RateLimiter(LIMITS)
+def test_acceleration_limiter_ramps_at_the_acceleration_limit() -> None:
+    limiter = AccelerationLimiter(LIMITS)
     steps = [limiter.step(Velocity(0.8, 0.0, -1.0), 0.1) for _ in range(10)]
     assert (steps[0].vx, steps[0].vy, steps[0].wz) == pytest.approx((0.1, 0.0, -0.2))
     assert (steps[4].vx, steps[4].wz) == pytest.approx((0.5, -1.0))
@@ -59,27 +60,27 @@ def test_rate_limiter_ramps_at_the_acceleration_limit() -> None:
 
 
 @given(st.lists(st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-2, 2)), min_size=1, max_size=50))
-def test_rate_limiter_never_jumps_more_than_allowed(targets) -> None:
-    limiter = RateLimiter(LIMITS)
+def test_acceleration_limiter_never_jumps_more_than_allowed(targets) -> None:
+    limiter = AccelerationLimiter(LIMITS)
     dt = 0.05
     prev = limiter.current
     for vx, vy, wz in targets:
         cur = limiter.step(Velocity(vx, vy, wz), dt)
         assert abs(cur.vx - prev.vx) <= LIMITS.max_ax * dt + 1e-12
         assert abs(cur.vy - prev.vy) <= LIMITS.max_ay * dt + 1e-12
-        assert abs(cur.wz - prev.wz) <= LIMITS.max_aw * dt + 1e-12
+        assert abs(cur.wz - prev.wz) <= LIMITS.max_awz * dt + 1e-12
         prev = cur
 
 
 def test_limits_must_be_positive() -> None:
     with pytest.raises(ValueError, match="max_vx"):
-        VelocityLimits(max_vx=0.0)
-    with pytest.raises(ValueError, match="max_aw"):
-        VelocityLimits(max_aw=math.nan)
+        replace(LIMITS, max_vx=0.0)
+    with pytest.raises(ValueError, match="max_awz"):
+        replace(LIMITS, max_awz=math.nan)
 
 
 def test_limiter_dt_is_clamped_and_propose_does_not_advance() -> None:
-    limiter = RateLimiter(LIMITS, max_dt_s=0.05)
+    limiter = AccelerationLimiter(LIMITS, max_dt_s=0.05)
     assert limiter.propose(Velocity(0.8, 0.0, 0.0), 0.5).vx == pytest.approx(0.05)  # a stall: one nominal step
     assert limiter.current == Velocity()  # nothing committed: a refused Move leaves the ramp where it was
     limiter.commit(Velocity(0.05, 0.0, 0.0))

@@ -2,26 +2,19 @@
 
 import pytest
 
+from fakes.fake_clock import FakeClock
 from g1_mode_manager.core.arm_ramp import ArmWeightRamp, robot_accepts_arm_sdk
 from g1_mode_manager.core.watchdog import Watchdog
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
-
-
 def test_watchdog_starts_expired_and_expires_after_timeout() -> None:
-    clock = Clock()
+    clock = FakeClock()
     dog = Watchdog(0.5, clock)
     assert dog.expired() and dog.age_s() is None
     dog.feed()
-    clock.t += 0.49
+    clock.advance(0.49)
     assert not dog.expired()
-    clock.t += 0.02
+    clock.advance(0.02)
     assert dog.expired()
     dog.feed()
     assert not dog.expired()

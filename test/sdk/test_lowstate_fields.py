@@ -11,7 +11,7 @@ from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowState_
 
 from g1_mode_manager.protocol.dds import apply_robot_type_compat
 from g1_mode_manager.protocol.idl import LowState_
-from g1_mode_manager.sdk.lowstate_fields import decode_fields, decode_fields_slowly
+from g1_mode_manager.protocol.lowstate_fields import decode_fields, decode_fields_slowly
 
 f32 = st.floats(-1e4, 1e4, width=32)
 motors = st.lists(f32, min_size=35, max_size=35)

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import pytest
 
+from fakes.fake_clock import FakeClock
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.node.lowstate_demand import HOLD_S, LowStateDemand
+from g1_mode_manager.relay.link_health import LinkHealth
+from g1_mode_manager.relay.lowstate_demand import HOLD_S, LowStateDemand
 
 HIGH = MachineStatus(mode=Mode.HIGH_LEVEL, transition_in_progress=False, transition_target=None, service_known=True,
                      service_active=True, damp_confirmed=False, last_refusal="", last_error="")  # fmt: skip
@@ -20,7 +22,7 @@ class Rig:
     status: MachineStatus = HIGH
     arms: bool = False
     link: bool = True
-    now: float = 100.0
+    clock: FakeClock = field(default_factory=lambda: FakeClock(start=100.0))
 
 
 @pytest.fixture
@@ -29,13 +31,13 @@ def rig():
     port = FakeRobotPort()
     machine = type("Machine", (), {"status": lambda _self: state.status})()
     demand = LowStateDemand(port, machine, lambda: state.arms, lambda: state.link, always=False,
-                            clock=lambda: state.now)  # fmt: skip
+                            clock=state.clock)  # fmt: skip
     return state, port, demand
 
 
 def settle(state: Rig, demand: LowStateDemand) -> None:
     demand.update()
-    state.now += HOLD_S + 0.1
+    state.clock.advance(HOLD_S + 0.1)
     demand.update()
 
 
@@ -54,7 +56,7 @@ def test_every_other_mode_receives_it(rig, mode: Mode) -> None:
     state.status = replace(HIGH, mode=mode)
     demand.update()
     assert port.lowstate_wanted
-    state.now += 60.0
+    state.clock.advance(60.0)
     demand.update()
     assert port.lowstate_wanted
 
@@ -81,7 +83,7 @@ def test_a_transition_a_target_arms_and_a_lost_link_subscribe_at_once(rig) -> No
 def test_joint_states_keep_it_always(rig) -> None:
     state, port, _ = rig
     always = LowStateDemand(port, type("M", (), {"status": lambda _s: state.status})(), lambda: False,
-                            lambda: True, always=True, clock=lambda: state.now)  # fmt: skip
+                            lambda: True, always=True, clock=state.clock)  # fmt: skip
     settle(state, always)
     assert port.lowstate_wanted
 
@@ -93,8 +95,6 @@ class _Gate:
 
 @pytest.mark.parametrize("mode", [Mode.HIGH_LEVEL, Mode.IDLE, Mode.LOW_LEVEL, Mode.EMERGENCY])
 def test_link_without_lowstate_is_judged_by_sportmodestate_in_high_level_only(mode: Mode) -> None:
-    from g1_mode_manager.node.link import LinkHealth
-
     port = FakeRobotPort()
     port.lowstate_age = 30.0  # the last sample before unsubscribing
     port.set_lowstate_wanted(False)

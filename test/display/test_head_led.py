@@ -5,8 +5,7 @@ from __future__ import annotations
 import pytest
 
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.relay.head_led import (
-    DEFAULT_LOOKS,
+from g1_mode_manager.display.head_led import (
     OFF,
     REFRESH_S,
     HeadLed,
@@ -14,6 +13,10 @@ from g1_mode_manager.relay.head_led import (
     Pattern,
     parse_looks,
 )
+from g1_mode_manager.node.settings import Settings
+
+#: The node's default looks (blue idle, green pulse in HIGH_LEVEL, red flash in EMERGENCY, ...).
+LOOKS = Settings().led_looks()
 
 
 class FakeVoice:
@@ -42,11 +45,11 @@ class Rig:
         self.connected = connected
         self.clock = clock
         self.led = HeadLed(lambda: self.mode, lambda: self.voice if self.connected else None,
-                           parse_looks(DEFAULT_LOOKS), events, announce=announce, clock=clock)
+                           parse_looks(LOOKS), events, announce=announce, clock=clock)
 
     def run(self, seconds: float, rate_hz: float = 10.0) -> None:
         for _ in range(round(seconds * rate_hz)):
-            self.clock.t += 1.0 / rate_hz
+            self.clock.advance(1.0 / rate_hz)
             self.led.tick()
 
 
@@ -57,7 +60,7 @@ def test_parse_accepts_the_table_format_and_rejects_nonsense() -> None:
         with pytest.raises(ValueError):
             LedLook.parse(bad)
     with pytest.raises(ValueError, match="EMERGENCY"):
-        parse_looks({Mode.EMERGENCY: "red"})
+        parse_looks({**LOOKS, Mode.EMERGENCY: "red"})
 
 
 def test_flash_alternates_colour_and_off_over_its_period() -> None:
@@ -111,7 +114,7 @@ def test_a_voice_port_that_cannot_be_made_is_counted_not_raised(events, clock) -
     def broken():
         raise RuntimeError("no DDS participant")
 
-    led = HeadLed(lambda: Mode.IDLE, broken, parse_looks(DEFAULT_LOOKS), events, clock=clock)
+    led = HeadLed(lambda: Mode.IDLE, broken, parse_looks(LOOKS), events, clock=clock)
     for _ in range(3):
         led.tick()
     assert events.counts()["head_led_failures"] == 3

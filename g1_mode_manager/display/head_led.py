@@ -13,9 +13,9 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
-from typing import Protocol
 
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import VoicePort
 from g1_mode_manager.relay.events import RelayEvents
 
 Rgb = tuple[int, int, int]
@@ -79,15 +79,6 @@ class LedLook:
         return (round(self.rgb[0] * scale), round(self.rgb[1] * scale), round(self.rgb[2] * scale))
 
 
-#: The defaults of the node's head_led_* parameters (config/mode_manager.yaml repeats them).
-DEFAULT_LOOKS: Mapping[Mode, str] = {
-    Mode.UNINITIALIZED: "0 0 0 solid",
-    Mode.IDLE: "0 0 255 solid",
-    Mode.HIGH_LEVEL: "0 255 0 pulse 2.0",
-    Mode.LOW_LEVEL: "255 120 0 pulse 1.0",
-    Mode.EMERGENCY: "255 0 0 flash 0.2",
-}
-
 #: What TTS says on entering a mode.
 ANNOUNCEMENTS: Mapping[Mode, str] = {
     Mode.IDLE: "idle",
@@ -98,22 +89,17 @@ ANNOUNCEMENTS: Mapping[Mode, str] = {
 
 
 def parse_looks(texts: Mapping[Mode, str]) -> dict[Mode, LedLook]:
-    """One look per mode; a mode missing from ``texts`` shows its default. Raises ValueError naming the mode."""
+    """One look per mode (the node's head_led_* parameters). Raises ValueError naming the mode."""
     looks = {}
     for mode in Mode:
-        text = texts.get(mode, DEFAULT_LOOKS[mode])
+        text = texts.get(mode)
+        if text is None:
+            raise ValueError(f"head LED of {mode.name}: no look given")
         try:
             looks[mode] = LedLook.parse(text)
         except ValueError as exc:
             raise ValueError(f"head LED of {mode.name}: {exc}") from None
     return looks
-
-
-class VoicePort(Protocol):
-    """The part of the robot's voice service the head LED needs (sdk.voice_client.VoiceClient)."""
-
-    def set_led(self, r: int, g: int, b: int) -> None: ...
-    def tts(self, text: str) -> None: ...
 
 
 class HeadLed:

@@ -1,4 +1,7 @@
-"""The built-in controller's posture/locomotion commands, as reachable from ROS, and their rules."""
+"""~/loco_command: when a verb of the built-in controller may reach the robot, and the sending of it.
+
+ROS-free: the node serves the request, this decides and sends; the verbs themselves are core/loco_verbs.py.
+"""
 
 from __future__ import annotations
 
@@ -8,10 +11,10 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.loco_verbs import LOCO_VERBS
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
-from g1_mode_manager.protocol import api_ids as api
-from g1_mode_manager.protocol.fsm import FsmId, FsmMode
+from g1_mode_manager.protocol.fsm import FsmMode
 
 #: LocoCommand code of a command refused here, before anything was sent to the robot.
 NOT_SENT = -1
@@ -22,46 +25,6 @@ class LocoResult:
     success: bool
     message: str
     code: int = NOT_SENT
-
-
-def _fsm(fsm_id: FsmId) -> Callable[[RobotPort, int], None]:
-    return lambda port, _value: port.set_fsm_id(int(fsm_id))
-
-
-def _speed_mode(port: RobotPort, value: int) -> None:
-    port.set_speed_mode(value)
-
-
-def _continuous_gait(port: RobotPort, value: int) -> None:
-    port.set_balance_mode(1 if value else 0)
-
-
-def _arm_task(task_id: int) -> Callable[[RobotPort, int], None]:
-    return lambda port, _value: port.set_arm_task(task_id)
-
-
-def _shake_hand(port: RobotPort, value: int) -> None:
-    port.set_arm_task(api.ARM_TASK_SHAKE_HAND_OUT if value == 0 else api.ARM_TASK_SHAKE_HAND_BACK)
-
-
-COMMANDS: dict[str, Callable[[RobotPort, int], None]] = {
-    "damp": _fsm(FsmId.DAMP),
-    "zero_torque": _fsm(FsmId.ZERO_TORQUE),
-    "squat": _fsm(FsmId.SQUAT),
-    "sit": _fsm(FsmId.SIT),
-    "stand_up": _fsm(FsmId.STAND_UP),
-    "start": _fsm(FsmId.START),
-    "balance_stand": lambda port, _value: port.set_balance_mode(0),
-    "continuous_gait": _continuous_gait,
-    "speed_mode": _speed_mode,
-    "high_stand": lambda port, _value: port.high_stand(),
-    "low_stand": lambda port, _value: port.low_stand(),
-    "wave_hand": _arm_task(api.ARM_TASK_WAVE),
-    "wave_and_turn": _arm_task(api.ARM_TASK_WAVE_AND_TURN),
-    "shake_hand": _shake_hand,  # value 0: hold the hand out, 1: withdraw it
-}
-
-_VALUE_RANGES = {"continuous_gait": range(0, 2), "speed_mode": range(0, 4), "shake_hand": range(0, 2)}
 
 
 class LocoGate(Protocol):
@@ -87,11 +50,11 @@ def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int) 
     """
     mode = gate.mode
     name = command.strip().lower()
-    action = COMMANDS.get(name)
-    if action is None:
-        return LocoResult(False, f"unknown command {command!r}; valid: {', '.join(COMMANDS)}")
-    if name in _VALUE_RANGES and value not in _VALUE_RANGES[name]:
-        r = _VALUE_RANGES[name]
+    verb = LOCO_VERBS.get(name)
+    if verb is None:
+        return LocoResult(False, f"unknown command {command!r}; valid: {', '.join(LOCO_VERBS)}")
+    r = verb.values
+    if r is not None and value not in r:
         return LocoResult(False, f"{name} takes a value from {r.start} to {r.stop - 1}, got {value}")
     if name == "damp":
         if mode is Mode.UNINITIALIZED:
@@ -111,10 +74,10 @@ def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int) 
         if not allowed:
             return _not_allowed(gate.mode)
         try:
-            action(port, value)
+            verb.send(port, value)
         except RobotError as exc:
             return LocoResult(False, str(exc), exc.code)
-    return LocoResult(True, f"{name} sent" + (f" (value {value})" if name in _VALUE_RANGES else ""), 0)
+    return LocoResult(True, f"{name} sent" + (f" (value {value})" if r is not None else ""), 0)
 
 
 def _not_allowed(mode: Mode) -> LocoResult:

@@ -10,7 +10,7 @@ import pytest
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
-from g1_mode_manager.node.loco_commands import run_loco_command
+from g1_mode_manager.relay.loco_command import run_loco_command
 
 
 class Gate:
@@ -34,8 +34,23 @@ SURFACE = [
     ("shake_hand", 1, ("set_arm_task", (3,))),
 ]
 
+#: Posture verbs: the robot's fsm ids and balance modes. Not in SURFACE, whose verbs must be refused outside
+#: HIGH_LEVEL: damp passes there too.
+POSTURE = [
+    ("damp", 0, ("set_fsm_id", (1,))),
+    ("zero_torque", 0, ("set_fsm_id", (0,))),
+    ("squat", 0, ("set_fsm_id", (2,))),
+    ("sit", 0, ("set_fsm_id", (3,))),
+    ("stand_up", 0, ("set_fsm_id", (4,))),
+    ("start", 0, ("set_fsm_id", (500,))),
+    ("balance_stand", 0, ("set_balance_mode", (0,))),
+    ("continuous_gait", 1, ("set_balance_mode", (1,))),
+    ("continuous_gait", 0, ("set_balance_mode", (0,))),
+    ("speed_mode", 3, ("set_speed_mode", (3,))),
+]
 
-@pytest.mark.parametrize(("command", "value", "sent"), SURFACE)
+
+@pytest.mark.parametrize(("command", "value", "sent"), SURFACE + POSTURE)
 def test_each_command_sends_its_call_in_high_level_while_static(command: str, value: int, sent: tuple) -> None:
     port = FakeRobotPort()
     result = run_loco_command(port, Gate(), command, value)
@@ -53,6 +68,15 @@ def test_refused_outside_high_level_while_dynamic_or_once_an_estop_began(command
         result = run_loco_command(port, gate, command, 0)
         assert not result.success and result.code == -1, (gate.mode, result.message)
         assert port.sent == []
+
+
+@pytest.mark.parametrize(("command", "value", "needle"), [
+    ("continuous_gait", 2, "value from 0 to 1"), ("speed_mode", 4, "value from 0 to 3"), ("fly", 0, "unknown command"),
+])
+def test_values_out_of_range_and_unknown_verbs_are_refused_unsent(command: str, value: int, needle: str) -> None:
+    port = FakeRobotPort()
+    result = run_loco_command(port, Gate(), command, value)
+    assert not result.success and needle in result.message and port.sent == []
 
 
 def test_shake_hand_takes_only_its_two_stages() -> None:
