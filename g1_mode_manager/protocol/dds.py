@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from cyclonedds.idl._typesupport.DDS import XTypes
+from g1_mode_manager.protocol.cyclone_internals import minimal_type_hash, use_byte_and_char8_kinds
 
 _compat_lock = threading.Lock()
 _compat_applied = False
@@ -21,17 +21,13 @@ def apply_robot_type_compat() -> None:
     global _compat_applied
     with _compat_lock:
         if not _compat_applied:
-            XTypes.TK_UINT8 = XTypes.TK_BYTE
-            XTypes.TK_INT8 = XTypes.TK_CHAR8
+            use_byte_and_char8_kinds()
             _compat_applied = True
 
 
 def minimal_type_id(idl_type: type) -> str:
     """Hex of the 14-byte minimal type hash of an IDL type (as in G1_FACTS.md)."""
-    from cyclonedds.idl._xt_builder import XTBuilder
-
-    info, _ = XTBuilder.process_type(idl_type)
-    return bytes(info.minimal.typeid_with_size.type_id.value).hex()
+    return minimal_type_hash(idl_type).hex()
 
 
 LOOPBACK_INTERFACE = "lo"

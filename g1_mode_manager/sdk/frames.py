@@ -14,10 +14,11 @@ import logging
 import math
 import struct
 from collections.abc import Callable, Sequence
-from typing import Final
+from typing import Any, Final
 
 from g1_mode_manager.core.port import MotorCommand
 from g1_mode_manager.protocol.crc import crc32_words
+from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
 from g1_mode_manager.protocol.idl import LowCmd_, MotorCmd_
 from g1_mode_manager.protocol.motors import NUM_MOTOR_SLOTS
 
@@ -94,19 +95,17 @@ class FrameWriter:
         self._writer = DataWriter(participant, Topic(participant, topic, LowCmd_))
         self._raw = self._raw_write_function()
 
-    def _raw_write_function(self) -> Callable[[int, bytes], int] | None:
-        """cyclonedds' ``ddspy_write`` with our header, if our bytes equal its serialisation; else None."""
+    def _raw_write_function(self) -> Callable[[Any, bytes], bool] | None:
+        """cyclonedds' write of ready-made bytes, with our header, if our bytes equal its serialisation; else None."""
         try:
-            from cyclonedds._clayer import ddspy_write
-
             probe = LowCmdFrame()
             probe.set_header(0, 5)
             probe.set_motor(3, 1, MotorCommand(q=0.5, dq=-1.0, tau=2.0, kp=40.0, kd=1.0))
             probe.values[-2] = 7  # reserve[3]
-            expected = probe.to_message().serialize(use_version_2=self._writer._use_version_2)
+            expected = probe.to_message().serialize(use_version_2=writer_use_version_2(self._writer))
             self._header = expected[:4]
             if probe.cdr(self._header) == expected:
-                return ddspy_write
+                return write_serialized
         except Exception:  # an incompatible cyclonedds: use the slow, public path
             _log.exception("raw LowCmd_ writing unavailable")
         _log.warning("writing %s through cyclonedds' serialiser (~0.5 ms a frame)", self.topic)
@@ -120,7 +119,7 @@ class FrameWriter:
         """Publish ``frame`` (crc computed here); False if DDS refused it."""
         try:
             if self._raw is not None:
-                return self._raw(self._writer._ref, frame.cdr(self._header)) >= 0
+                return self._raw(self._writer, frame.cdr(self._header))
             self._writer.write(frame.to_message())
             return True
         except Exception:

@@ -25,6 +25,8 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     RequestPolicy_,
 )
 
+from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+
 _log = logging.getLogger(__name__)
 
 _HEADER: Final = struct.Struct("<qqqi?3x")  # identity.id, identity.api_id, lease.id, policy.priority, noreply
@@ -65,21 +67,19 @@ class RequestWriter:
         """A server's request reader is matched (what the SDK's Write polls for)."""
         return self._publisher._Writer__publication_matched_count > 0
 
-    def _raw_write_function(self) -> Callable[[int, bytes], int] | None:
+    def _raw_write_function(self) -> Callable[[Any, bytes], bool] | None:
         try:
-            from cyclonedds._clayer import ddspy_write
-
             probes = [(1_700_000_000_123_456_789, 7105, '{"velocity": [0.3, -0.1, 0.5], "duration": 1.0}', False),
                       (42, 7101, '{"data": 1}', True), (3, 1001, "", False), (4, 1002, '{"name": "ai"}', False),
                       (5, 1010, '{"text": "é, ü"}', False)]  # fmt: skip
             for probe in probes:
-                expected = make_request(*probe).serialize(use_version_2=self._writer._use_version_2)
+                expected = make_request(*probe).serialize(use_version_2=writer_use_version_2(self._writer))
                 expected = expected.ljust((len(expected) + 3) & ~3, b"\0")
                 self._header = expected[:4]
                 if encode(self._header, *probe) != expected:
                     _log.warning("Request_ bytes differ from cyclonedds' for %r: writing through its serialiser", probe)
                     return None
-            return ddspy_write
+            return write_serialized
         except Exception:  # an incompatible cyclonedds: the SDK's path
             _log.exception("raw Request_ writing unavailable")
             return None
@@ -96,7 +96,7 @@ class RequestWriter:
                 waited += MATCH_POLL_S
         try:
             if self._raw is not None:
-                return self._raw(self._writer._ref, encode(self._header, request_id, api_id, parameter, noreply)) >= 0
+                return self._raw(self._writer, encode(self._header, request_id, api_id, parameter, noreply))
             self._writer.write(make_request(request_id, api_id, parameter, noreply))
             return True
         except Exception:

@@ -18,8 +18,7 @@ import struct
 import threading
 from typing import Any, Final, NamedTuple
 
-from cyclonedds._clayer import ddspy_take
-from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.core import Listener
 from cyclonedds.sub import DataReader
 from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     RequestIdentity_,
@@ -28,10 +27,10 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     ResponseStatus_,
 )
 
+from g1_mode_manager.protocol.cyclone_internals import held_listener, take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
 
 _log = logging.getLogger(__name__)
-_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 _IDS_LE: Final = struct.Struct("<qqi")  # identity.id, identity.api_id, status.code
 _IDS_BE: Final = struct.Struct(">qqi")
 _TAKE_MAX: Final = 16
@@ -94,7 +93,7 @@ class ResponseReader:
         # The SDK's reader stops calling Python: its listener is removed, but the Python object behind it is
         # kept (cyclonedds frees it before Cyclone stops using it; Cyclone's threads then call freed memory:
         # a SIGSEGV in a 'gc' thread seen in a full run when the reader itself was closed).
-        _NEVER_FREED.append(sdk_reader._listener)
+        _NEVER_FREED.append(held_listener(sdk_reader))
         sdk_reader.set_listener(None)
 
     @staticmethod
@@ -136,8 +135,8 @@ class ResponseReader:
         """In Cyclone's receive thread: take what is there, wake the calls it answers."""
         try:
             while True:
-                taken = ddspy_take(self._reader._ref, _ANY_STATE, _TAKE_MAX)
-                if isinstance(taken, int) or not taken:
+                taken = take_serialized(self._reader, _TAKE_MAX)
+                if not taken:
                     return
                 for raw, info in taken:
                     if info.valid_data:

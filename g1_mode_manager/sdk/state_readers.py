@@ -18,21 +18,20 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, Generic, TypeVar
 
-from cyclonedds._clayer import ddspy_take as _ddspy_take
-from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.core import Listener
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from g1_mode_manager.core.port import SportState
 from g1_mode_manager.protocol import topics
+from g1_mode_manager.protocol.cyclone_internals import delete_entity, take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
 from g1_mode_manager.protocol.idl import LowState_, SportModeState_
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
 T = TypeVar("T")
 _log = logging.getLogger(__name__)
-_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
 #: Cyclone keeps only the newest sample; best effort: a lost state sample is superseded 2 ms later, and
@@ -73,9 +72,7 @@ class LatestSample(Generic[T]):
         if reader is None:
             return None
         try:
-            taken = _ddspy_take(reader._ref, _ANY_STATE, 4)
-            if isinstance(taken, int):
-                return None
+            taken = take_serialized(reader, 4)
             data = [d for d, info in taken if info.valid_data]
             if not data:
                 return None
@@ -154,19 +151,14 @@ class LatestSample(Generic[T]):
                     self._reader.set_listener(listener)
                 return
             reader, self._reader = self._reader, None
-        _delete(reader)
+        if reader is not None:
+            delete_entity(reader)  # now: cyclonedds would delete it only when the object is collected
 
     def close(self) -> None:
         self.set_listener(None)
         with self._lock:
             self._closed = True
             self._reader = None
-
-
-def _delete(reader: Any) -> None:
-    """Delete the DDS reader now (cyclonedds deletes an entity when its Python object is collected)."""
-    if reader is not None:
-        reader.__del__()
 
 
 @dataclass(frozen=True)

@@ -25,13 +25,12 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, Final
 
-from cyclonedds._clayer import ddspy_take
-from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.core import Listener
 from cyclonedds.sub import DataReader
 
+from g1_mode_manager.protocol.cyclone_internals import take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
 
-_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 _TAKE_MAX: Final = 16
 #: Listeners Cyclone may still call are kept for the life of the process (freeing one can crash a DDS thread).
 _NEVER_FREED: list[Any] = []
@@ -83,8 +82,8 @@ class Arrivals:
     def _on_data(self, _reader: Any) -> None:
         t = time.monotonic()
         while True:
-            taken = ddspy_take(self._reader._ref, _ANY_STATE, _TAKE_MAX)
-            if isinstance(taken, int) or not taken:
+            taken = take_serialized(self._reader, _TAKE_MAX)
+            if not taken:
                 return
             with self._lock:
                 for raw, info in taken:
