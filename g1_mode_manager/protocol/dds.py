@@ -6,6 +6,7 @@ import threading
 from typing import Any
 
 from g1_mode_manager.protocol.cyclone_internals import minimal_type_hash, use_byte_and_char8_kinds
+from g1_mode_manager.protocol.unitree_sdk_internals import channel_factory_initialized, channel_factory_participant
 
 _compat_lock = threading.Lock()
 _compat_applied = False
@@ -73,8 +74,7 @@ def init_channels(domain_id: int, interface: str, *, serve_multicast: bool = Fal
 
     apply_robot_type_compat()
     factory = sdk_channel.ChannelFactory()
-    cls = type(factory)
-    if getattr(cls, "_ChannelFactory__initialized", False):
+    if channel_factory_initialized():
         return
     original = sdk_channel.ChannelConfigHasInterface
     sdk_channel.ChannelConfigHasInterface = cyclone_config(interface, serve_multicast=serve_multicast)
@@ -88,9 +88,7 @@ def init_channels(domain_id: int, interface: str, *, serve_multicast: bool = Fal
 
 def sdk_participant() -> Any:
     """The DDS participant of the SDK's process-wide domain (private in the SDK: no accessor)."""
-    from unitree_sdk2py.core.channel import ChannelFactory
-
-    participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
+    participant = channel_factory_participant()
     if participant is None:
         raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
     return participant

@@ -19,6 +19,7 @@ from typing import Any, Final
 from g1_mode_manager.core.port import MotorCommand
 from g1_mode_manager.protocol.crc import crc32_words
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+from g1_mode_manager.protocol.dds import sdk_participant
 from g1_mode_manager.protocol.idl import LowCmd_, MotorCmd_
 from g1_mode_manager.protocol.motors import NUM_MOTOR_SLOTS
 
@@ -86,11 +87,8 @@ class FrameWriter:
     def __init__(self, topic: str) -> None:
         from cyclonedds.pub import DataWriter
         from cyclonedds.topic import Topic
-        from unitree_sdk2py.core.channel import ChannelFactory
 
-        participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
-        if participant is None:
-            raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
+        participant = sdk_participant()
         self.topic = topic
         self._writer = DataWriter(participant, Topic(participant, topic, LowCmd_))
         self._raw = self._raw_write_function()

@@ -26,6 +26,11 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
 )
 
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+from g1_mode_manager.protocol.unitree_sdk_internals import (
+    channel_datawriter,
+    channel_matched_readers,
+    client_request_channel,
+)
 
 _log = logging.getLogger(__name__)
 
@@ -53,9 +58,8 @@ class RequestWriter:
     """Writes one client's requests on the SDK's own request DataWriter (same topic, QoS, participant)."""
 
     def __init__(self, client_stub: Any) -> None:
-        channel = client_stub._ClientStub__sendChannel  # the SDK's send channel (name-mangled private)
-        self._publisher = channel._Channel__writer  # its Channel.__Writer: the DataWriter and the match count
-        self._writer = self._publisher._Writer__writer
+        self._channel = client_request_channel(client_stub)  # the SDK's send channel: the DataWriter, the match count
+        self._writer = channel_datawriter(self._channel)
         self._header = b""
         self._raw = self._raw_write_function()
 
@@ -65,7 +69,7 @@ class RequestWriter:
 
     def matched(self) -> bool:
         """A server's request reader is matched (what the SDK's Write polls for)."""
-        return self._publisher._Writer__publication_matched_count > 0
+        return channel_matched_readers(self._channel) > 0
 
     def _raw_write_function(self) -> Callable[[Any, bytes], bool] | None:
         try:

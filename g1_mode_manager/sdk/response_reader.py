@@ -29,6 +29,7 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
 
 from g1_mode_manager.protocol.cyclone_internals import held_listener, take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
+from g1_mode_manager.protocol.unitree_sdk_internals import channel_datareader, client_response_channel
 
 _log = logging.getLogger(__name__)
 _IDS_LE: Final = struct.Struct("<qqi")  # identity.id, identity.api_id, status.code
@@ -80,8 +81,7 @@ class ResponseReader:
     """
 
     def __init__(self, client_stub: Any) -> None:
-        channel = client_stub._ClientStub__recvChannel  # the SDK's response channel (name-mangled private)
-        sdk_reader = channel._Channel__reader._Reader__reader
+        sdk_reader = channel_datareader(client_response_channel(client_stub))
         self._lock = threading.Lock()
         self._pending: dict[int, Pending] = {}
         self._decode = decode if self._decoding_is_exact() else _decode_slow

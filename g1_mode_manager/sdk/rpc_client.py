@@ -33,6 +33,7 @@ from g1_mode_manager.protocol.api_ids import (
     ERR_CLIENT_SEND,
     OK,
 )
+from g1_mode_manager.protocol.unitree_sdk_internals import client_stub
 from g1_mode_manager.sdk.request_writer import RequestWriter
 from g1_mode_manager.sdk.response_reader import ResponseReader
 
@@ -52,7 +53,7 @@ class RpcClient(Client):
             self._RegistApi(api_id, 0)
         # Used only by the SDK's own no-reply path (its wait for a topic match); never changed later.
         self.SetTimeout(self.timeout_s)
-        self._stub = self._ClientBase__stub  # the SDK's transport: its topics and request writer
+        self._stub = client_stub(self)  # the SDK's transport: its topics and request writer
         self._writer = RequestWriter(self._stub)
         self._replies = ResponseReader(self._stub)
         self._id_lock = threading.Lock()

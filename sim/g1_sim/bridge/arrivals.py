@@ -52,11 +52,6 @@ def last_uint32(raw: bytes) -> int | None:
     return struct.unpack_from("<I" if raw[1] & 1 else ">I", raw, len(raw) - 4)[0]
 
 
-def sdk_reader_of(channel: Any) -> Any:
-    """The cyclonedds DataReader behind an SDK channel (private in the SDK: no accessor)."""
-    return channel._Channel__reader._Reader__reader
-
-
 class Arrivals:
     """Receive times of one topic's samples, noted in Cyclone's receive thread, popped by key in order."""
 
