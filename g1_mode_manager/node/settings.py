@@ -48,7 +48,7 @@ class Settings:
     sportmodestate_rate_hz: float = 10.0
     estop_verify_period_s: float = EstopTiming.verify_period_s
     belief_check_period_s: float = EstopTiming.belief_period_s
-    # --- issue 11: head LED / TTS, joint states + IMU, stamped cmd_vel ---
+    # --- head LED / TTS, joint states + IMU, stamped cmd_vel ---
     head_led_enabled: bool = True
     head_led_rate_hz: float = 10.0
     head_led_uninitialized: str = DEFAULT_LOOKS[Mode.UNINITIALIZED]
@@ -67,7 +67,7 @@ class Settings:
                            belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
 
     def led_looks(self) -> dict[Mode, str]:
-        """The head LED table (issue 11): one 'R G B pattern period' text per mode."""
+        """The head LED table: one 'R G B pattern period' text per mode."""
         return {Mode.UNINITIALIZED: self.head_led_uninitialized, Mode.IDLE: self.head_led_idle,
                 Mode.HIGH_LEVEL: self.head_led_high_level, Mode.LOW_LEVEL: self.head_led_low_level,
                 Mode.EMERGENCY: self.head_led_emergency}

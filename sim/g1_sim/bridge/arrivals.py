@@ -11,8 +11,8 @@ takes the raw samples and notes ``time.monotonic()`` with a key read from the by
 frame's CRC), in arrival order. The handler, which sees the samples in the same order, pops the stamp of
 its sample: the first one with its key, dropping the older ones (samples the SDK's queues dropped). Only
 the last ``window`` stamps are kept: a sample being handled arrived at most that many samples ago (the
-SDK's queues hold fewer). Without a stamp (the listener lost the race) the handler stamps itself, as
-before: late, never early. One case can be early: identical frames (same CRC) while the SDK's frame queue
+SDK's queues hold fewer). Without a stamp (the listener lost the race) the handler stamps itself:
+late, never early. One case can be early: identical frames (same CRC) while the SDK's frame queue
 overflows get the stamp of an identical frame that arrived up to ``window`` frames earlier.
 """
 
