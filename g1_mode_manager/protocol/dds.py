@@ -27,7 +27,8 @@ def apply_robot_type_compat() -> None:
 
 
 def minimal_type_id(idl_type: type) -> str:
-    """Hex of the 14-byte minimal type hash of an IDL type (as in G1_FACTS.md)."""
+    """Hex of the 14-byte minimal type hash of an IDL type: a real G1 matches a topic only if it equals the
+    hash compiled into the robot's C++ SDK."""
     return minimal_type_hash(idl_type).hex()
 
 

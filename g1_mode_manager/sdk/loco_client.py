@@ -81,7 +81,7 @@ class LocoClient(RpcClient):
             raise ValueError(f"SetSpeedMode: mode must be one of {sorted(SPEED_MODE_MAX_SPEED)}, got {mode!r}")
         self.call("SetSpeedMode", api.LOCO_SET_SPEED_MODE, {"data": int(mode)}, timeout_s=timeout_s)
 
-    # --- high-level helpers (G1_FACTS section 3) ---------------------------------------------------
+    # --- high-level helpers, as the SDK's LocoClient names them --------------------------------------
     def damp(self, *, timeout_s: float | None = None) -> None:
         self.set_fsm_id(FsmId.DAMP, timeout_s=timeout_s)
 
