@@ -1,9 +1,9 @@
 """Serve a few subscriptions (and services) from one thread of their own, through a wait set of just those.
 
 rclpy's executors rebuild their wait set in Python on every wake (every subscription, timer,
-service, guard and publisher event handler of every node, through context managers): on this
-project's machine ~0.6-0.9 ms per /cmd_vel message, 6-9 % of a core at 100 Hz, and a service request
-then waits for a hand-off to a pool thread (~1-2 ms). Here the wait set holds only the given
+service, guard and publisher event handler of every node, through context managers), which at 100 Hz
+of /cmd_vel adds up to a noticeable share of a core, and a service request then waits for a hand-off
+to a pool thread. Here the wait set holds only the given
 subscriptions and services and a stop guard; each wake costs a few C calls, one take per ready entity,
 and the callback. Callbacks run one at a time in this thread: they must not block (the relays only
 store the command and wake their worker; a service callback hands its slow part to a thread of its

@@ -87,7 +87,7 @@ class LocoClient(RpcClient):
 
     def damp_no_reply(self) -> None:
         """SetFsmId(1) flagged no-reply: sent at once, nothing awaited (the e-stop's first shot)."""
-        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, text=_DAMP_TEXT)  # json.dumps costs ~30 us here
+        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, text=_DAMP_TEXT)  # made once: no json.dumps on the e-stop's path
 
     def zero_torque(self, *, timeout_s: float | None = None) -> None:
         self.set_fsm_id(FsmId.ZERO_TORQUE, timeout_s=timeout_s)

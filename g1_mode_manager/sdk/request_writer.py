@@ -1,12 +1,12 @@
 """An RPC client's requests written as ready-made CDR bytes, on the SDK's own request writer.
 
 cyclonedds-python serialises a ``unitree_api`` Request_ (nested header structs, a string, an empty
-sequence) through its generic IDL machinery: ~0.1-0.2 ms of Python per request on this project's
-machine, in front of every Move and of the e-stop's Damp. The layout is fixed: three int64 (request id,
+sequence) through its generic IDL machinery, which costs more per message than struct packing, in front
+of every Move and of the e-stop's Damp. The layout is fixed: three int64 (request id,
 api id, lease id), an int32 priority and a bool no-reply flag, then the JSON parameter as a CDR string
-and an empty binary sequence. ``struct`` packs that in a few microseconds. The writer checks once, at
+and an empty binary sequence. ``struct`` packs that directly. The writer checks once, at
 creation, that its bytes equal cyclonedds' own serialisation of the same request, and otherwise is not
-used (the client then writes Request_ objects through the SDK, as before).
+used (the client then writes Request_ objects on the same writer, through cyclonedds' serialiser).
 """
 
 from __future__ import annotations

@@ -2,13 +2,13 @@
 
 The SDK's ``ClientStub`` receives every reply through a cyclonedds listener that deserialises a whole
 Response_ with the generic IDL machinery, queues it, and lets a thread of its own ("ch_reader") resolve
-a future: two Python hops and ~0.1-0.3 ms of Python per reply on this project's machine, for every Move
-acknowledgement, LED colour and supervision check, and for every reply to *other* clients of the same
-service (the response topic is shared). Here one reader on the same topic with the same QoS takes the
-raw sample in Cyclone's receive thread, unpacks it with ``struct`` (a few us) and wakes the call of this
-client that waits for its request id, if any. The layout is fixed (request id, api id: int64; status code:
-int32; data: string; binary: sequence<uint8>); the reader checks once, at creation, that its decoding
-of cyclonedds' own serialisation is right, and otherwise deserialises Response_ objects.
+a future: two Python hops and the generic deserialiser per reply, for every Move acknowledgement, LED
+colour and supervision check, and for every reply to *other* clients of the same service (the response
+topic is shared). Here one reader on the same topic with the same QoS takes the raw sample in Cyclone's
+receive thread, unpacks it with ``struct`` (far cheaper) and wakes the call of this client that waits
+for its request id, if any. The layout is fixed (request id, api id: int64; status code: int32; data:
+string; binary: sequence<uint8>); the reader checks once, at creation, that its decoding of cyclonedds'
+own serialisation is right, and otherwise deserialises Response_ objects.
 """
 
 from __future__ import annotations
