@@ -105,9 +105,9 @@ class ModeManagerNode(Node):
                                    silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s)
         for relay in (self._lowcmd, self._arm, self._cmd_vel):  # lowcmd first: its damping frames are the urgent ones
             self.machine.add_leave_listener(relay.on_leave)
-        # --- issue 11: cmd_vel relative (a namespace gives each robot its own), Twist or TwistStamped ---
+        # --- cmd_vel relative (a namespace gives each robot its own), Twist or TwistStamped ---
         # The command streams are taken by a thread of their own from a wait set of just them (see
-        # stream_taker.py): through rclpy's executor each /cmd_vel cost ~0.9 ms of Python on this node.
+        # stream_taker.py): rclpy's executor rebuilds its wait set in Python for every /cmd_vel.
         self._streams_node = rclpy.create_node(f"{self.get_name()}_streams", namespace=self.get_namespace(),
                                                context=self.context, start_parameter_services=False)
         self._streams = StreamTaker(self._streams_node, "streams", self._worker_error)
@@ -146,7 +146,7 @@ class ModeManagerNode(Node):
         self._supervisor = PeriodicWorker("supervisor", s.supervise_rate_hz, self._supervise, self._worker_error)
         self._supervisor.start()
 
-        # --- issue 11: the head LED shows the mode. Its own worker *reads* the mode (no leave listener, no
+        # --- the head LED shows the mode. Its own worker *reads* the mode (no leave listener, no
         # machine lock held while it talks to the robot), so a slow voice service never delays an e-stop.
         self._head_led: HeadLed | None = None
         self._head_led_worker: PeriodicWorker | None = None
@@ -157,7 +157,7 @@ class ModeManagerNode(Node):
                                                    self._worker_error)
             self._head_led_worker.start()
 
-        # --- issue 11: joint_states and ~/imu from rt/lowstate, decoded only when published ---
+        # --- joint_states and ~/imu from rt/lowstate, decoded only when published ---
         if s.joint_state_rate_hz > 0:
             from g1_mode_manager.node.joint_states import LowStatePublisher
 
@@ -187,7 +187,7 @@ class ModeManagerNode(Node):
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
         self._service_side.shutdown()
         self._estop.shutdown()
-        if self._head_led_worker is not None and self._head_led is not None:  # issue 11
+        if self._head_led_worker is not None and self._head_led is not None:
             self._head_led_worker.stop()
             self._head_led.turn_off()
         self._port.close()
@@ -232,8 +232,8 @@ class ModeManagerNode(Node):
         self._cmd_vel.submit(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
-        """issue 11: a command older than cmd_vel_timeout_s is dropped and counted (it would restart a
-        robot the watchdog already stopped)."""
+        """A command older than cmd_vel_timeout_s is dropped and counted (it would restart a robot the
+        watchdog already stopped)."""
         age_s = stamp_age_s(self.get_clock().now().nanoseconds, msg.header.stamp.sec, msg.header.stamp.nanosec)
         if age_s > self.settings.cmd_vel_timeout_s:
             self._events.count("cmd_vel_stale_dropped")
@@ -244,7 +244,7 @@ class ModeManagerNode(Node):
         self._cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
 
     def _voice_port(self) -> VoicePort | None:
-        """issue 11: the robot's voice service once the port is connected (ports without one: None)."""
+        """The robot's voice service once the port is connected (ports without one: None)."""
         return self._port.voice(self.settings.voice_timeout_s)
 
     def _on_arm_cmd(self, msg: JointState) -> None:

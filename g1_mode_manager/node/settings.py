@@ -56,7 +56,7 @@ class Settings:
     sportmodestate_rate_hz: float = 10.0
     estop_verify_period_s: float = EstopTiming.verify_period_s
     belief_check_period_s: float = EstopTiming.belief_period_s
-    # --- issue 11: head LED / TTS, joint states + IMU, stamped cmd_vel ---
+    # --- head LED / TTS, joint states + IMU, stamped cmd_vel ---
     head_led_enabled: bool = True
     head_led_rate_hz: float = 10.0
     head_led_uninitialized: str = "0 0 0 solid"
@@ -78,7 +78,7 @@ class Settings:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
 
     def led_looks(self) -> dict[Mode, str]:
-        """The head LED table (issue 11): one 'R G B pattern period' text per mode."""
+        """The head LED table: one 'R G B pattern period' text per mode."""
         return {mode: getattr(self, name) for mode, name in LED_PARAMETERS.items()}
 
 

@@ -1,15 +1,15 @@
 """Serve a few subscriptions (and services) from one thread of their own, through a wait set of just those.
 
 rclpy's executors rebuild their wait set in Python on every wake (every subscription, timer,
-service, guard and publisher event handler of every node, through context managers): on this
-project's machine ~0.6-0.9 ms per /cmd_vel message, 6-9 % of a core at 100 Hz, and a service request
-then waits for a hand-off to a pool thread (~1-2 ms). Here the wait set holds only the given
+service, guard and publisher event handler of every node, through context managers), which at 100 Hz
+of /cmd_vel adds up to a noticeable share of a core, and a service request then waits for a hand-off
+to a pool thread. Here the wait set holds only the given
 subscriptions and services and a stop guard; each wake costs a few C calls, one take per ready entity,
 and the callback. Callbacks run one at a time in this thread: they must not block (the relays only
 store the command and wake their worker; a service callback hands its slow part to a thread of its
 own and answers from there through ``respond``).
 
-Uses rclpy's wait set, take and send-response calls as its executors do (rclpy 7.1, Jazzy).
+The wait set and the takes are rclpy's own, as its executors use them (``rclpy_internals.py``).
 """
 
 from __future__ import annotations
@@ -20,11 +20,12 @@ from collections.abc import Callable
 from typing import Any
 
 from rclpy.exceptions import InvalidHandle
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.service import Service
 from rclpy.subscription import Subscription
+
+from g1_mode_manager.node.rclpy_internals import new_wait_set, take_message, take_request
 
 _log = logging.getLogger(__name__)
 #: The thread looks at its stop flag at least this often (ns): a stop after SIGINT cannot use the guard.
@@ -85,8 +86,8 @@ class StreamTaker:
     def _run(self) -> None:
         context = self._node.context
         try:
-            with context.handle:
-                wait_set = _rclpy.WaitSet(len(self._subs), 1, 0, 0, len(self._services), 0, context.handle)
+            wait_set = new_wait_set(context, subscriptions=len(self._subs), guard_conditions=1,
+                                    services=len(self._services))  # fmt: skip
             while not self._stop.is_set() and context.ok():
                 wait_set.clear_entities()
                 for service, _callback in self._services:
@@ -112,8 +113,7 @@ class StreamTaker:
                 self._on_error(exc)
 
     def _take_request(self, service: Service, callback: Callable[[Any, Respond], None]) -> None:
-        with service.handle:
-            request, header = service.handle.service_take_request(service.srv_type.Request)
+        request, header = take_request(service)
         if header is None:
             return
 
@@ -130,8 +130,7 @@ class StreamTaker:
                 self._on_error(exc)
 
     def _take(self, sub: Subscription) -> None:
-        with sub.handle:
-            taken = sub.handle.take_message(sub.msg_type, sub.raw)
+        taken = take_message(sub)
         if taken is None:
             return
         try:

@@ -1,4 +1,9 @@
-"""RPC services of the G1: names, versions, api ids and return codes (see G1_FACTS.md section 3)."""
+"""RPC services of the G1: names, versions, api ids and return codes.
+
+Names, versions and api ids as the Unitree SDK2 defines them (unitree_sdk2py's g1/loco/g1_loco_api.py,
+g1/arm/g1_arm_action_api.py, g1/audio/g1_audio_api.py, comm/motion_switcher/motion_switcher_api.py);
+the 3xxx return codes as its rpc/internal.py (7301 and 7302 are not in the SDK).
+"""
 
 from typing import Final
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import threading
 from typing import Any
 
-from cyclonedds.idl._typesupport.DDS import XTypes
+from g1_mode_manager.protocol.cyclone_internals import minimal_type_hash, use_byte_and_char8_kinds
+from g1_mode_manager.protocol.unitree_sdk_internals import channel_factory_initialized, channel_factory_participant
 
 _compat_lock = threading.Lock()
 _compat_applied = False
@@ -21,17 +22,14 @@ def apply_robot_type_compat() -> None:
     global _compat_applied
     with _compat_lock:
         if not _compat_applied:
-            XTypes.TK_UINT8 = XTypes.TK_BYTE
-            XTypes.TK_INT8 = XTypes.TK_CHAR8
+            use_byte_and_char8_kinds()
             _compat_applied = True
 
 
 def minimal_type_id(idl_type: type) -> str:
-    """Hex of the 14-byte minimal type hash of an IDL type (as in G1_FACTS.md)."""
-    from cyclonedds.idl._xt_builder import XTBuilder
-
-    info, _ = XTBuilder.process_type(idl_type)
-    return bytes(info.minimal.typeid_with_size.type_id.value).hex()
+    """Hex of the 14-byte minimal type hash of an IDL type: a real G1 matches a topic only if it equals the
+    hash compiled into the robot's C++ SDK."""
+    return minimal_type_hash(idl_type).hex()
 
 
 LOOPBACK_INTERFACE = "lo"
@@ -77,8 +75,7 @@ def init_channels(domain_id: int, interface: str, *, serve_multicast: bool = Fal
 
     apply_robot_type_compat()
     factory = sdk_channel.ChannelFactory()
-    cls = type(factory)
-    if getattr(cls, "_ChannelFactory__initialized", False):
+    if channel_factory_initialized():
         return
     original = sdk_channel.ChannelConfigHasInterface
     sdk_channel.ChannelConfigHasInterface = cyclone_config(interface, serve_multicast=serve_multicast)
@@ -92,9 +89,7 @@ def init_channels(domain_id: int, interface: str, *, serve_multicast: bool = Fal
 
 def sdk_participant() -> Any:
     """The DDS participant of the SDK's process-wide domain (private in the SDK: no accessor)."""
-    from unitree_sdk2py.core.channel import ChannelFactory
-
-    participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
+    participant = channel_factory_participant()
     if participant is None:
         raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
     return participant

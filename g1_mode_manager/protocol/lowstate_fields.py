@@ -1,8 +1,8 @@
 """Joint states and IMU of one serialised rt/lowstate, decoded only when someone publishes them.
 
 rt/lowstate arrives at 500 Hz; the reader keeps the raw bytes of the latest sample, and the node
-decodes them at its own (lower) publishing rate. A struct path reads the fixed CDR layout (~5 us);
-other encodings fall back to the full deserialisation (~0.4 ms).
+decodes them at its own (lower) publishing rate. A struct path reads the fixed CDR layout;
+other encodings fall back to the full, much slower deserialisation.
 """
 
 from __future__ import annotations

@@ -32,7 +32,8 @@ ARM_SDK_JOINTS: Final = tuple(range(12, 29))
 ARM_SDK_JOINT_NAMES: Final = tuple(JOINT_NAMES[i] for i in ARM_SDK_JOINTS)
 ARM_SDK_WEIGHT_INDEX: Final = 29
 
-#: Effort limits in N m, by motor index (G1_FACTS.md section 4).
+#: Effort limits in N m, by motor index: the joints' actuatorfrcrange in Unitree's G1 model (MuJoCo
+#: Menagerie unitree_g1/g1.xml, the sim's model).
 _LEG = (88.0, 139.0, 88.0, 139.0, 50.0, 50.0)
 _ARM = (25.0, 25.0, 25.0, 25.0, 25.0, 5.0, 5.0)
 EFFORT_LIMIT_NM: Final = (*_LEG, *_LEG, 88.0, 50.0, 50.0, *_ARM, *_ARM)

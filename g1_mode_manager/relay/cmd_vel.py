@@ -36,7 +36,7 @@ from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 RAMP_PERIOD_S = 0.05
 #: Moves that may go out back to back; over any longer stretch they stay within max_rate_hz. Two, so that
 #: a new command arriving just after a keep-alive or ramp step is not held back (with a plain minimum
-#: interval it waited up to 1 / max_rate_hz: ~10 ms median in the bench for a publisher near 10 Hz).
+#: interval it would wait up to 1 / max_rate_hz).
 MOVE_BURST = 2
 #: A StopMove that got no answer is sent again up to this many times in all; after that the robot
 #: stops by itself when the last Move's lease (move_duration_s) runs out.

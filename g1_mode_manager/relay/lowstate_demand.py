@@ -1,7 +1,7 @@
 """Receive the robot's rt/lowstate only while something needs it.
 
-rt/lowstate comes at 500 Hz; receiving it costs ~1.7 % of a core in Cyclone's receive thread alone, with
-no Python per sample (measured on this project's machine). In HIGH_LEVEL nothing needs it unless the arms
+rt/lowstate comes at 500 Hz; receiving it costs CPU in Cyclone's receive thread even with no Python per
+sample. In HIGH_LEVEL nothing needs it unless the arms
 are driven (their ramp starts from the measured pose) or joint_states are published: there the link's
 evidence is rt/sportmodestate, the high-level service's own stream. A reboot silences that stream, and a
 lost link subscribes again: the first sample after it is compared with the last one before (the reader

@@ -1,7 +1,7 @@
 """unitree_hg LowCmd_ frames held as flat values and published as ready-made CDR bytes.
 
-cyclonedds-python serialises a LowCmd_ (35 nested MotorCmd_) in ~0.5 ms, ten times the CRC's cost, and
-a 500 Hz lowcmd relay cannot afford that. A frame here is the C struct's field values in order; one
+cyclonedds-python's generic serialiser costs more per LowCmd_ (35 nested MotorCmd_) than the CRC
+itself, and a 500 Hz lowcmd relay cannot afford that. A frame here is the C struct's field values in order; one
 precompiled ``struct.Struct`` packs them for the CRC, and the CDR payload is the same bytes but for
 the padding before the first motor (CDR aligns MotorCmd_ by its first member, a uint8). The writer
 checks once, at creation, that its bytes equal cyclonedds' own serialisation, and otherwise falls
@@ -14,10 +14,12 @@ import logging
 import math
 import struct
 from collections.abc import Callable, Sequence
-from typing import Final
+from typing import Any, Final
 
 from g1_mode_manager.core.port import MotorCommand
 from g1_mode_manager.protocol.crc import crc32_words
+from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+from g1_mode_manager.protocol.dds import sdk_participant
 from g1_mode_manager.protocol.idl import LowCmd_, MotorCmd_
 from g1_mode_manager.protocol.motors import NUM_MOTOR_SLOTS
 
@@ -85,28 +87,23 @@ class FrameWriter:
     def __init__(self, topic: str) -> None:
         from cyclonedds.pub import DataWriter
         from cyclonedds.topic import Topic
-        from unitree_sdk2py.core.channel import ChannelFactory
 
-        participant = getattr(type(ChannelFactory()), "_ChannelFactory__participant", None)
-        if participant is None:
-            raise RuntimeError("the SDK's DDS domain is not initialised (call protocol.dds.init_channels first)")
+        participant = sdk_participant()
         self.topic = topic
         self._writer = DataWriter(participant, Topic(participant, topic, LowCmd_))
         self._raw = self._raw_write_function()
 
-    def _raw_write_function(self) -> Callable[[int, bytes], int] | None:
-        """cyclonedds' ``ddspy_write`` with our header, if our bytes equal its serialisation; else None."""
+    def _raw_write_function(self) -> Callable[[Any, bytes], bool] | None:
+        """cyclonedds' write of ready-made bytes, with our header, if our bytes equal its serialisation; else None."""
         try:
-            from cyclonedds._clayer import ddspy_write
-
             probe = LowCmdFrame()
             probe.set_header(0, 5)
             probe.set_motor(3, 1, MotorCommand(q=0.5, dq=-1.0, tau=2.0, kp=40.0, kd=1.0))
             probe.values[-2] = 7  # reserve[3]
-            expected = probe.to_message().serialize(use_version_2=self._writer._use_version_2)
+            expected = probe.to_message().serialize(use_version_2=writer_use_version_2(self._writer))
             self._header = expected[:4]
             if probe.cdr(self._header) == expected:
-                return ddspy_write
+                return write_serialized
         except Exception:  # an incompatible cyclonedds: use the slow, public path
             _log.exception("raw LowCmd_ writing unavailable")
         _log.warning("writing %s through cyclonedds' serialiser (~0.5 ms a frame)", self.topic)
@@ -120,7 +117,7 @@ class FrameWriter:
         """Publish ``frame`` (crc computed here); False if DDS refused it."""
         try:
             if self._raw is not None:
-                return self._raw(self._writer._ref, frame.cdr(self._header)) >= 0
+                return self._raw(self._writer, frame.cdr(self._header))
             self._writer.write(frame.to_message())
             return True
         except Exception:

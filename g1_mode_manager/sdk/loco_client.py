@@ -90,13 +90,13 @@ class LocoClient(RpcClient):
             raise ValueError(f"SetSpeedMode: mode must be one of {sorted(SPEED_MODE_MAX_SPEED)}, got {mode!r}")
         self.call("SetSpeedMode", api.LOCO_SET_SPEED_MODE, {"data": int(mode)}, timeout_s=timeout_s)
 
-    # --- high-level helpers (G1_FACTS section 3) ---------------------------------------------------
+    # --- high-level helpers, as the SDK's LocoClient names them --------------------------------------
     def damp(self, *, timeout_s: float | None = None) -> None:
         self.set_fsm_id(FsmId.DAMP, timeout_s=timeout_s)
 
     def damp_no_reply(self) -> None:
         """SetFsmId(1) flagged no-reply: sent at once, nothing awaited (the e-stop's first shot)."""
-        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, text=_DAMP_TEXT)  # json.dumps costs ~30 us here
+        self.call_no_reply("SetFsmId", api.LOCO_SET_FSM_ID, text=_DAMP_TEXT)  # made once: no json.dumps on the e-stop's path
 
     def zero_torque(self, *, timeout_s: float | None = None) -> None:
         self.set_fsm_id(FsmId.ZERO_TORQUE, timeout_s=timeout_s)

@@ -1,12 +1,12 @@
 """An RPC client's requests written as ready-made CDR bytes, on the SDK's own request writer.
 
 cyclonedds-python serialises a ``unitree_api`` Request_ (nested header structs, a string, an empty
-sequence) through its generic IDL machinery: ~0.1-0.2 ms of Python per request on this project's
-machine, in front of every Move and of the e-stop's Damp. The layout is fixed: three int64 (request id,
+sequence) through its generic IDL machinery, which costs more per message than struct packing, in front
+of every Move and of the e-stop's Damp. The layout is fixed: three int64 (request id,
 api id, lease id), an int32 priority and a bool no-reply flag, then the JSON parameter as a CDR string
-and an empty binary sequence. ``struct`` packs that in a few microseconds. The writer checks once, at
+and an empty binary sequence. ``struct`` packs that directly. The writer checks once, at
 creation, that its bytes equal cyclonedds' own serialisation of the same request, and otherwise is not
-used (the client then writes Request_ objects through the SDK, as before).
+used (the client then writes Request_ objects on the same writer, through cyclonedds' serialiser).
 """
 
 from __future__ import annotations
@@ -23,6 +23,13 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     RequestIdentity_,
     RequestLease_,
     RequestPolicy_,
+)
+
+from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+from g1_mode_manager.protocol.unitree_sdk_internals import (
+    channel_datawriter,
+    channel_matched_readers,
+    client_request_channel,
 )
 
 _log = logging.getLogger(__name__)
@@ -51,9 +58,8 @@ class RequestWriter:
     """Writes one client's requests on the SDK's own request DataWriter (same topic, QoS, participant)."""
 
     def __init__(self, client_stub: Any) -> None:
-        channel = client_stub._ClientStub__sendChannel  # the SDK's send channel (name-mangled private)
-        self._publisher = channel._Channel__writer  # its Channel.__Writer: the DataWriter and the match count
-        self._writer = self._publisher._Writer__writer
+        self._channel = client_request_channel(client_stub)  # the SDK's send channel: the DataWriter, the match count
+        self._writer = channel_datawriter(self._channel)
         self._header = b""
         self._raw = self._raw_write_function()
 
@@ -63,23 +69,21 @@ class RequestWriter:
 
     def matched(self) -> bool:
         """A server's request reader is matched (what the SDK's Write polls for)."""
-        return self._publisher._Writer__publication_matched_count > 0
+        return channel_matched_readers(self._channel) > 0
 
-    def _raw_write_function(self) -> Callable[[int, bytes], int] | None:
+    def _raw_write_function(self) -> Callable[[Any, bytes], bool] | None:
         try:
-            from cyclonedds._clayer import ddspy_write
-
             probes = [(1_700_000_000_123_456_789, 7105, '{"velocity": [0.3, -0.1, 0.5], "duration": 1.0}', False),
                       (42, 7101, '{"data": 1}', True), (3, 1001, "", False), (4, 1002, '{"name": "ai"}', False),
                       (5, 1010, '{"text": "é, ü"}', False)]  # fmt: skip
             for probe in probes:
-                expected = make_request(*probe).serialize(use_version_2=self._writer._use_version_2)
+                expected = make_request(*probe).serialize(use_version_2=writer_use_version_2(self._writer))
                 expected = expected.ljust((len(expected) + 3) & ~3, b"\0")
                 self._header = expected[:4]
                 if encode(self._header, *probe) != expected:
                     _log.warning("Request_ bytes differ from cyclonedds' for %r: writing through its serialiser", probe)
                     return None
-            return ddspy_write
+            return write_serialized
         except Exception:  # an incompatible cyclonedds: the SDK's path
             _log.exception("raw Request_ writing unavailable")
             return None
@@ -96,7 +100,7 @@ class RequestWriter:
                 waited += MATCH_POLL_S
         try:
             if self._raw is not None:
-                return self._raw(self._writer._ref, encode(self._header, request_id, api_id, parameter, noreply)) >= 0
+                return self._raw(self._writer, encode(self._header, request_id, api_id, parameter, noreply))
             self._writer.write(make_request(request_id, api_id, parameter, noreply))
             return True
         except Exception:

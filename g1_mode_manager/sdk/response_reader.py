@@ -2,13 +2,13 @@
 
 The SDK's ``ClientStub`` receives every reply through a cyclonedds listener that deserialises a whole
 Response_ with the generic IDL machinery, queues it, and lets a thread of its own ("ch_reader") resolve
-a future: two Python hops and ~0.1-0.3 ms of Python per reply on this project's machine, for every Move
-acknowledgement, LED colour and supervision check, and for every reply to *other* clients of the same
-service (the response topic is shared). Here one reader on the same topic with the same QoS takes the
-raw sample in Cyclone's receive thread, unpacks it with ``struct`` (a few us) and wakes the call of this
-client that waits for its request id, if any. The layout is fixed (request id, api id: int64; status code:
-int32; data: string; binary: sequence<uint8>); the reader checks once, at creation, that its decoding
-of cyclonedds' own serialisation is right, and otherwise deserialises Response_ objects.
+a future: two Python hops and the generic deserialiser per reply, for every Move acknowledgement, LED
+colour and supervision check, and for every reply to *other* clients of the same service (the response
+topic is shared). Here one reader on the same topic with the same QoS takes the raw sample in Cyclone's
+receive thread, unpacks it with ``struct`` (far cheaper) and wakes the call of this client that waits
+for its request id, if any. The layout is fixed (request id, api id: int64; status code: int32; data:
+string; binary: sequence<uint8>); the reader checks once, at creation, that its decoding of cyclonedds'
+own serialisation is right, and otherwise deserialises Response_ objects.
 """
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ import struct
 import threading
 from typing import Any, Final, NamedTuple
 
-from cyclonedds._clayer import ddspy_take
-from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.core import Listener
 from cyclonedds.sub import DataReader
 from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     RequestIdentity_,
@@ -28,10 +27,11 @@ from unitree_sdk2py.idl.unitree_api.msg.dds_ import (
     ResponseStatus_,
 )
 
+from g1_mode_manager.protocol.cyclone_internals import held_listener, take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
+from g1_mode_manager.protocol.unitree_sdk_internals import channel_datareader, client_response_channel
 
 _log = logging.getLogger(__name__)
-_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 _IDS_LE: Final = struct.Struct("<qqi")  # identity.id, identity.api_id, status.code
 _IDS_BE: Final = struct.Struct(">qqi")
 _TAKE_MAX: Final = 16
@@ -81,8 +81,7 @@ class ResponseReader:
     """
 
     def __init__(self, client_stub: Any) -> None:
-        channel = client_stub._ClientStub__recvChannel  # the SDK's response channel (name-mangled private)
-        sdk_reader = channel._Channel__reader._Reader__reader
+        sdk_reader = channel_datareader(client_response_channel(client_stub))
         self._lock = threading.Lock()
         self._pending: dict[int, Pending] = {}
         self._decode = decode if self._decoding_is_exact() else _decode_slow
@@ -94,7 +93,7 @@ class ResponseReader:
         # The SDK's reader stops calling Python: its listener is removed, but the Python object behind it is
         # kept (cyclonedds frees it before Cyclone stops using it; Cyclone's threads then call freed memory:
         # a SIGSEGV in a 'gc' thread seen in a full run when the reader itself was closed).
-        _NEVER_FREED.append(sdk_reader._listener)
+        _NEVER_FREED.append(held_listener(sdk_reader))
         sdk_reader.set_listener(None)
 
     @staticmethod
@@ -136,8 +135,8 @@ class ResponseReader:
         """In Cyclone's receive thread: take what is there, wake the calls it answers."""
         try:
             while True:
-                taken = ddspy_take(self._reader._ref, _ANY_STATE, _TAKE_MAX)
-                if isinstance(taken, int) or not taken:
+                taken = take_serialized(self._reader, _TAKE_MAX)
+                if not taken:
                     return
                 for raw, info in taken:
                     if info.valid_data:

@@ -1,7 +1,7 @@
 """Readers of the robot's state topics that cost nothing per sample in Python.
 
 The robot publishes rt/lowstate at 500 Hz. A Python listener per sample (GIL, ctypes callback, decode)
-cost ~4 % of a core on its own; here Cyclone keeps only the newest sample (KEEP_LAST 1, in C) and a
+costs a noticeable share of a core on its own at that rate; here Cyclone keeps only the newest sample (KEEP_LAST 1, in C) and a
 reader takes it when someone asks (``latest()``, ``age_s()``...), decoding only then. "Received" is
 the moment a read found a new sample: it errs late by at most the gap between reads, which the
 node's supervisor keeps at or below 0.1 s (and any active relay far below). A per-sample callback is
@@ -18,21 +18,20 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Final, Generic, TypeVar
 
-from cyclonedds._clayer import ddspy_take as _ddspy_take
-from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.core import Listener
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from g1_mode_manager.core.port import SportState
 from g1_mode_manager.protocol import topics
+from g1_mode_manager.protocol.cyclone_internals import delete_entity, take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
 from g1_mode_manager.protocol.idl import LowState_, SportModeState_
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
 T = TypeVar("T")
 _log = logging.getLogger(__name__)
-_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 
 
 #: Cyclone keeps only the newest sample; best effort: a lost state sample is superseded 2 ms later, and
@@ -73,9 +72,7 @@ class LatestSample(Generic[T]):
         if reader is None:
             return None
         try:
-            taken = _ddspy_take(reader._ref, _ANY_STATE, 4)
-            if isinstance(taken, int):
-                return None
+            taken = take_serialized(reader, 4)
             data = [d for d, info in taken if info.valid_data]
             if not data:
                 return None
@@ -154,19 +151,14 @@ class LatestSample(Generic[T]):
                     self._reader.set_listener(listener)
                 return
             reader, self._reader = self._reader, None
-        _delete(reader)
+        if reader is not None:
+            delete_entity(reader)  # now: cyclonedds would delete it only when the object is collected
 
     def close(self) -> None:
         self.set_listener(None)
         with self._lock:
             self._closed = True
             self._reader = None
-
-
-def _delete(reader: Any) -> None:
-    """Delete the DDS reader now (cyclonedds deletes an entity when its Python object is collected)."""
-    if reader is not None:
-        reader.__del__()
 
 
 @dataclass(frozen=True)
@@ -193,8 +185,8 @@ _LITTLE_ENDIAN_ENCODINGS: Final = (0x01, 0x07)  # CDR_LE (XCDR1), PLAIN_CDR2_LE:
 
 
 def decode_lowstate(data: bytes) -> LowStateSnapshot:
-    """Decode mode_machine, tick and the 29 joint positions of a serialised LowState_ (~3 us instead of the
-    ~0.4 ms of a full deserialisation, which at 500 Hz would cost a fifth of a core)."""
+    """Decode mode_machine, tick and the 29 joint positions of a serialised LowState_ by struct (a full
+    deserialisation costs far more, too much at 500 Hz)."""
     if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= _Q_AT + _Q.size:
         return LowStateSnapshot(mode_machine=data[_MODE_MACHINE_AT], tick=_TICK.unpack_from(data, _TICK_AT)[0],
                                 q=_Q.unpack_from(data, _Q_AT), data=data)  # fmt: skip
@@ -248,7 +240,7 @@ _SPORT: Final = struct.Struct("<IIIf")  # fsm_id, fsm_mode, task_id (uint32), ta
 
 
 def decode_sport_state(data: bytes) -> SportModeState_:
-    """A serialised SportModeState_ by struct (~1 us instead of cyclonedds' ~30 us); other encodings the slow way."""
+    """A serialised SportModeState_ by struct (far cheaper than cyclonedds' deserialiser); other encodings the slow way."""
     if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= 4 + _SPORT.size:
         return SportModeState_(*_SPORT.unpack_from(data, 4))
     return SportModeState_.deserialize(data)

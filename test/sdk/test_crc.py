@@ -7,7 +7,7 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_, unitree_hg_msg_dds__LowState_
 from unitree_sdk2py.utils.crc import CRC
@@ -55,13 +55,13 @@ def lowstates(draw: st.DrawFn) -> LowState_:
     return msg
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(lowcmds())
 def test_lowcmd_crc_equals_sdk(msg: LowCmd_) -> None:
     assert crc.lowcmd_crc(msg) == CRC().Crc(msg)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(lowstates())
 def test_lowstate_crc_equals_sdk(msg: LowState_) -> None:
     assert crc.lowstate_crc(msg) == CRC().Crc(msg)

@@ -7,7 +7,7 @@ import pytest
 from g1_mode_manager.protocol.dds import apply_robot_type_compat, minimal_type_id
 from g1_mode_manager.protocol.idl import LowCmd_, LowState_, Request_, Response_, SportModeState_
 
-# G1_FACTS.md section 2: 14-byte equivalence hashes after the 0xf1 kind byte.
+# The robot's C++ SDK's minimal type identifiers: the 0xf1 kind byte, then the 14-byte equivalence hash.
 ROBOT_TYPE_IDS = {
     LowCmd_: "f16569fc15f0d47aa8600b9e91fbbc",
     LowState_: "f12f38296b52aa0230b92d378b1e39",

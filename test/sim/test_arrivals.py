@@ -11,7 +11,13 @@ from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
 from unitree_sdk2py.idl.unitree_api.msg.dds_ import Request_, RequestHeader_, RequestIdentity_, RequestLease_, RequestPolicy_
 
-from g1_sim.bridge.arrivals import Arrivals, last_uint32, request_id, sdk_reader_of
+from g1_mode_manager.protocol.unitree_sdk_internals import (
+    channel_datareader,
+    channel_matched_readers,
+    publisher_channel,
+    subscriber_channel,
+)
+from g1_sim.bridge.arrivals import Arrivals, last_uint32, request_id
 from support.mode_manager import wait_until
 
 
@@ -41,11 +47,10 @@ def test_frames_are_stamped_on_delivery_and_popped_in_order(sdk_channels: int) -
     handled = []
     sub = ChannelSubscriber(topic, type(unitree_hg_msg_dds__LowCmd_()))
     sub.Init(lambda msg: handled.append(msg.crc), 0)
-    stamps = Arrivals(sdk_reader_of(sub._ChannelSubscriber__channel), last_uint32, window=4)
+    stamps = Arrivals(channel_datareader(subscriber_channel(sub)), last_uint32, window=4)
     pub = ChannelPublisher(topic, type(unitree_hg_msg_dds__LowCmd_()))
     pub.Init()
-    assert wait_until(lambda: pub._ChannelPublisher__channel._Channel__writer._Writer__publication_matched_count >= 2,
-                      10.0)  # fmt: skip
+    assert wait_until(lambda: channel_matched_readers(publisher_channel(pub)) >= 2, 10.0)
     sent = []
     for crc in (1, 2, 3, 2, 4, 5):
         msg = unitree_hg_msg_dds__LowCmd_()

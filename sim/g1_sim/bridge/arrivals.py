@@ -11,8 +11,8 @@ takes the raw samples and notes ``time.monotonic()`` with a key read from the by
 frame's CRC), in arrival order. The handler, which sees the samples in the same order, pops the stamp of
 its sample: the first one with its key, dropping the older ones (samples the SDK's queues dropped). Only
 the last ``window`` stamps are kept: a sample being handled arrived at most that many samples ago (the
-SDK's queues hold fewer). Without a stamp (the listener lost the race) the handler stamps itself, as
-before: late, never early. One case can be early: identical frames (same CRC) while the SDK's frame queue
+SDK's queues hold fewer). Without a stamp (the listener lost the race) the handler stamps itself:
+late, never early. One case can be early: identical frames (same CRC) while the SDK's frame queue
 overflows get the stamp of an identical frame that arrived up to ``window`` frames earlier.
 """
 
@@ -25,13 +25,12 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any, Final
 
-from cyclonedds._clayer import ddspy_take
-from cyclonedds.core import InstanceState, Listener, SampleState, ViewState
+from cyclonedds.core import Listener
 from cyclonedds.sub import DataReader
 
+from g1_mode_manager.protocol.cyclone_internals import take_serialized
 from g1_mode_manager.protocol.dds import sdk_participant
 
-_ANY_STATE: Final = SampleState.Any | ViewState.Any | InstanceState.Any
 _TAKE_MAX: Final = 16
 #: Listeners Cyclone may still call are kept for the life of the process (freeing one can crash a DDS thread).
 _NEVER_FREED: list[Any] = []
@@ -51,11 +50,6 @@ def last_uint32(raw: bytes) -> int | None:
     if len(raw) < 8 or raw[0] != 0:
         return None
     return struct.unpack_from("<I" if raw[1] & 1 else ">I", raw, len(raw) - 4)[0]
-
-
-def sdk_reader_of(channel: Any) -> Any:
-    """The cyclonedds DataReader behind an SDK channel (private in the SDK: no accessor)."""
-    return channel._Channel__reader._Reader__reader
 
 
 class Arrivals:
@@ -83,8 +77,8 @@ class Arrivals:
     def _on_data(self, _reader: Any) -> None:
         t = time.monotonic()
         while True:
-            taken = ddspy_take(self._reader._ref, _ANY_STATE, _TAKE_MAX)
-            if isinstance(taken, int) or not taken:
+            taken = take_serialized(self._reader, _TAKE_MAX)
+            if not taken:
                 return
             with self._lock:
                 for raw, info in taken:

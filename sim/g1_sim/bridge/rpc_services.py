@@ -29,7 +29,13 @@ from typing import Any, Protocol
 from unitree_sdk2py.rpc.server import Server
 
 from g1_mode_manager.protocol import api_ids as api
-from g1_sim.bridge.arrivals import Arrivals, request_id, sdk_reader_of
+from g1_mode_manager.protocol.unitree_sdk_internals import (
+    channel_datareader,
+    server_handler,
+    server_request_channel,
+    server_request_handler,
+)
+from g1_sim.bridge.arrivals import Arrivals, request_id
 from g1_sim.bridge.faults import DAMP_FAILURE_CODE, Faults
 
 Reply = tuple[int, str]
@@ -276,11 +282,10 @@ class SimServer(Server):
         self._SetServerRequestHandler(self._on_request)
         self._Start(enable_prio_queue)
         if self._on_received is not None:  # the record wants receive times: stamp where Cyclone delivers
-            channel = self._ServerBase__serverStub._ServerStub__recvChannel  # type: ignore[attr-defined]
-            self._arrivals = Arrivals(sdk_reader_of(channel), request_id, window=32)
+            self._arrivals = Arrivals(channel_datareader(server_request_channel(self)), request_id, window=32)
 
     def _dispatch(self, request: Any) -> None:
-        self._Server__ServerRequestHandler(request)  # type: ignore[attr-defined]
+        server_request_handler(self)(request)
 
     def _on_request(self, request: Any) -> None:
         api_id = int(request.header.identity.api_id)
@@ -310,7 +315,7 @@ class SimServer(Server):
 
     def handle_for_test(self, api_id: int, parameter: str) -> Reply:
         """Run a registered handler directly (unit tests without DDS)."""
-        handler, _ = self._Server__GetHandler(api_id)  # type: ignore[attr-defined]
+        handler, _ = server_handler(self, api_id)
         if handler is None:
             return (api.ERR_SERVER_API_NOT_IMPL, "")
         return handler(parameter)

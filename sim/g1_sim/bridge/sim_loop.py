@@ -1,7 +1,7 @@
 """The sim thread: step the robot one physics step at a time and publish on the robot's schedule.
 
 rt/lowstate goes out at 500 Hz of sim time, rt/sportmodestate and the ROS topics at 50 Hz, all from
-this thread right after the step they describe (lowstate packing costs ~30 us, see lowstate_codec).
+this thread right after the step they describe (lowstate packing is cheap, see lowstate_codec).
 """
 
 from __future__ import annotations

@@ -13,7 +13,13 @@ from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
-from g1_sim.bridge.arrivals import Arrivals, last_uint32, sdk_reader_of
+from g1_mode_manager.protocol.unitree_sdk_internals import (
+    channel_datareader,
+    channel_matched_readers,
+    publisher_channel,
+    subscriber_channel,
+)
+from g1_sim.bridge.arrivals import Arrivals, last_uint32
 from g1_sim.bridge.commands import CommandIntake
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
 
@@ -80,10 +86,9 @@ class StatePublishers:
 
 
 def _matched_readers(publisher: ChannelPublisher) -> int:
-    """The publication-matched count the SDK's channel writer keeps (private in the SDK: no accessor)."""
+    """The publication-matched count the SDK's channel writer keeps (the SDK has no accessor)."""
     try:
-        writer = publisher._ChannelPublisher__channel._Channel__writer
-        return int(writer._Writer__publication_matched_count)
+        return int(channel_matched_readers(publisher_channel(publisher)))
     except AttributeError:
         return -1
 
@@ -99,7 +104,7 @@ class CommandSubscribers:
             sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN)
             self._subs.append(sub)
             if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
-                reader = sdk_reader_of(sub._ChannelSubscriber__channel)
+                reader = channel_datareader(subscriber_channel(sub))
                 stamps = Arrivals(reader, last_uint32, window=2 * COMMAND_QUEUE_LEN)
                 self._arrivals[topic.removeprefix("rt/")] = stamps
 

@@ -106,7 +106,7 @@ class LocomotionController:
 
     While rt/arm_sdk drives the upper body (``arm_weight`` > 0), the policy is shown the arm and waist-yaw
     positions it was trained on, its own targets, instead of the measured ones: poses it never saw made
-    it stumble and fall (``bench/arm_balance.py``: 62 % of the grid fell, 27 % with this). Waist roll
+    it stumble and fall (``bench/arm_balance.py``; its counts are in docs/arm_balance.md). Waist roll
     and pitch stay measured (hiding them too made it worse: they tilt the torso, which the policy must
     know). The blend follows the weight, so ramps stay smooth.
 
@@ -114,8 +114,8 @@ class LocomotionController:
     the pelvis (roll and pitch only, ``xfrc_applied``) that rights its tilt, scaled by the weight and capped
     at ASSIST_LIMIT_NM, about what moving the centre of pressure under the feet can give this robot. It
     stands in for what the real locomotion controller has and this policy lacks (training with upper-body
-    perturbation: none ships in a wheel on PyPI). Without it 6 of the 45 walking cells of
-    ``bench/arm_balance.py`` fall (the waist turned 1.5 rad, arms overhead at 0.5 m/s); the bench prints the
+    perturbation: none ships in a wheel on PyPI). Without it walking cells of ``bench/arm_balance.py``
+    fall (the waist turned 1.5 rad, arms overhead at 0.5 m/s; docs/arm_balance.md); the bench prints the
     peak torque each cell took. Walking without arm_sdk never gets it. ``assist_nm`` is the last torque.
     """
 
