@@ -13,6 +13,7 @@ class Mode(IntEnum):
     HIGH_LEVEL = 2
     LOW_LEVEL = 3
     EMERGENCY = 4
+    FAULT = 5  # a body check tripped: a protective stop, left only by clear_fault to IDLE (or an e-stop)
 
     @classmethod
     def parse(cls, text: str) -> Mode:

@@ -114,6 +114,15 @@ class VoicePort(Protocol):
     def tts(self, text: str) -> None: ...
 
 
+@dataclass(frozen=True)
+class StateSample:
+    """The newest robot state sample: a serialised LowState_ and how old it is."""
+
+    data: bytes
+    age_s: float
+    low_rate: bool  # from rt/lf/lowstate (about 20 Hz), not rt/lowstate
+
+
 @runtime_checkable
 class RobotPort(ModePort, Protocol):
     """Everything the node sends to or reads from the robot."""
@@ -153,6 +162,12 @@ class RobotPort(ModePort, Protocol):
 
     def joint_positions(self) -> Sequence[float] | None:
         """The 29 measured joint positions in motor order while current (rt/lowstate received, fresh), else None."""
+
+    def state_sample(self) -> StateSample | None:
+        """The freshest of rt/lowstate (while received) and rt/lf/lowstate; None before either arrived."""
+
+    def battery_soc(self) -> tuple[float, float] | None:
+        """(state of charge %, age s) of the newest rt/lf/bmsstate; None before one arrived."""
 
     def lowstate_restarts(self) -> int:
         """How often rt/lowstate's tick went back (the robot rebooted) since connect."""

@@ -55,3 +55,5 @@ class MachineStatus:
     robot_mismatch: str = ""  # why the robot no longer matches the mode (forwarding stopped); "" if it does
     reasserts: int = 0  # how often supervision had to re-damp the robot in EMERGENCY
     version: int = 0  # grows with every change: a snapshot with a lower version is older
+    faults: tuple[str, ...] = ()  # FAULT: the body checks that put the robot there
+    holds: tuple[str, ...] = ()  # body checks holding motion in the current mode

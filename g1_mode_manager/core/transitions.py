@@ -21,6 +21,15 @@ class Step(Enum):
     ENSURE_SERVICE_ACTIVE = "ensure_service_active"  # CheckMode; SelectMode("ai") only if released; confirm
     RELEASE_SERVICE = "release_service"  # ReleaseMode until CheckMode reports "" (official low-level entry)
     ESTOP = "estop"  # DampNoReply, ensure the service is active, Damp (see ModeMachine.estop)
+    PROTECTIVE_STOP = "protective_stop"  # a body check tripped: the e-stop's damping path, into FAULT
+
+
+class Trigger(Enum):
+    """Who may cause a transition: an operator's request, the body supervision, or clear_fault."""
+
+    REQUEST = "request"  # set_mode (and the e-stop, which every mode allows)
+    BODY_CHECK = "body_check"  # a body check's fault reaction
+    CLEAR_FAULT = "clear_fault"  # an operator's explicit clear, once every check is clear
 
 
 @dataclass(frozen=True)
@@ -34,6 +43,7 @@ class Transition:
     #: The robot is limp afterwards even if no SelectMode was needed (it was released before): the
     #: outcome says so (ZERO_TORQUE_NOTE), as it does after every SelectMode.
     leaves_robot_limp: bool = False
+    trigger: Trigger = Trigger.REQUEST
 
 
 #: Added to a transition's outcome when the robot comes out of it limp: SelectMode brings the service back
@@ -41,7 +51,8 @@ class Transition:
 ZERO_TORQUE_NOTE = "robot is in zero torque; send stand_up/damp"
 
 
-_U, _I, _H, _L, _E = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY
+_U, _I, _H, _L, _E, _F = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY, Mode.FAULT
+_BODY, _CLEAR = Trigger.BODY_CHECK, Trigger.CLEAR_FAULT
 _CONNECT, _ACTIVE, _RELEASE = Step.CONNECT, Step.ENSURE_SERVICE_ACTIVE, Step.RELEASE_SERVICE
 
 # fmt: off
@@ -56,6 +67,9 @@ TRANSITIONS: tuple[Transition, ...] = (
     Transition(_L, _I, (),                   "forwarding stopped; robot stays released (limp, debug mode)"),
     Transition(_L, _H, (_ACTIVE,),           "high-level service active", leaves_robot_limp=True),
     *(Transition(m, _E, (Step.ESTOP,),       "e-stop: damping") for m in Mode),
+    *(Transition(m, _F, (Step.PROTECTIVE_STOP,), "protective stop: damping", trigger=_BODY) for m in (_I, _H, _L)),
+    Transition(_F, _I, (),                   "fault cleared: nothing is forwarded; the robot stays damped",
+               trigger=_CLEAR),
 )
 # fmt: on
 
@@ -71,23 +85,35 @@ REENTRIES: dict[Mode, Transition] = {
 # fmt: on
 
 
-def lookup(source: Mode, target: Mode) -> Transition | str:
-    """The legal transition from source to target, or the reason it is refused.
+def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST) -> Transition | str:
+    """The legal transition from source to target for this trigger, or the reason it is refused.
 
-    Every one of the 25 pairs is either in the table or matched by an explicit refusal below;
-    a pair matched by neither is a bug in this module and raises AssertionError.
+    Every (source, target, trigger) is either in the table or matched by an explicit refusal below;
+    one matched by neither is a bug in this module and raises AssertionError.
     """
     legal = TABLE.get((source, target))
-    if legal is not None:
+    if legal is not None and legal.trigger is trigger:
         return legal
-    match (source, target):
-        case (Mode.EMERGENCY, _):
+    match (source, target, trigger):
+        case (Mode.EMERGENCY, _, _):
             return "nothing leaves EMERGENCY: make the robot safe, then restart the mode manager"
-        case (s, t) if s is t:
+        case (_, Mode.FAULT, Trigger.REQUEST):
+            return "FAULT is entered when a body check trips, not requested"
+        case (Mode.FAULT, _, Trigger.REQUEST):
+            return "in FAULT: clear it with ~/clear_fault (to IDLE) once every check is clear, or e-stop"
+        case (Mode.FAULT, Mode.FAULT, Trigger.BODY_CHECK):
+            return "already in FAULT; the new fault is added to the list"
+        case (_, _, Trigger.CLEAR_FAULT):
+            return f"not in FAULT ({source.name}): no fault to clear"
+        case (Mode.UNINITIALIZED, _, Trigger.BODY_CHECK):
+            return "not connected yet: no body check acts before the first transition"
+        case (_, _, Trigger.BODY_CHECK):
+            return f"a body check enters FAULT only, not {target.name}"
+        case (s, t, _) if s is t:
             return f"already in {s.name}; nothing to do"
-        case (_, Mode.UNINITIALIZED):
+        case (_, Mode.UNINITIALIZED, _):
             return "nothing goes back to UNINITIALIZED; request IDLE to stop forwarding"
-    raise AssertionError(f"transition table has no rule for {source.name} -> {target.name}")
+    raise AssertionError(f"transition table has no rule for {source.name} -> {target.name} by {trigger.value}")
 
 
 def rule_for(source: Mode, target: Mode, *, mismatch: bool) -> Transition | str:

@@ -39,6 +39,13 @@ def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: Link
             "EMERGENCY, robot seen damped" if status.damp_confirmed
             else "EMERGENCY, robot NOT seen damped: supervision is re-damping it"
         )
+    elif status.mode is Mode.FAULT:
+        mode_status.level = DiagnosticStatus.ERROR
+        damped = "robot seen damped" if status.damp_confirmed else "robot NOT seen damped yet: the protective stop goes on"
+        mode_status.message = f"FAULT ({', '.join(status.faults)}); {damped}; ~/clear_fault once every check is clear"
+    elif status.holds:
+        mode_status.level = DiagnosticStatus.ERROR
+        mode_status.message = f"{status.mode.name}, motion held ({', '.join(status.holds)}); ~/clear_fault releases it"
     elif status.robot_mismatch:
         mode_status.level = DiagnosticStatus.ERROR
         mode_status.message = f"{status.mode.name}: {status.robot_mismatch}; nothing forwarded until a mode is requested"
@@ -54,6 +61,8 @@ def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: Link
         _kv("robot_mismatch", status.robot_mismatch),
         _kv("damp_confirmed", status.damp_confirmed),
         _kv("reasserts", status.reasserts),
+        _kv("faults", "; ".join(status.faults)),
+        _kv("holds", "; ".join(status.holds)),
     ]
 
     refused = sum(v for k, v in counts.items() if k.endswith(("_dropped", "_rejected")))

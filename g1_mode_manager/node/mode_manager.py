@@ -23,6 +23,7 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort, VoicePort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
 from g1_mode_manager.display.head_led import HeadLed, parse_looks
+from g1_mode_manager.node.body_supervision import BodySupervision
 from g1_mode_manager.node.diagnostics import build_diagnostics
 from g1_mode_manager.node.estop import EstopEndpoint
 from g1_mode_manager.node.settings import Settings, declare_settings
@@ -101,8 +102,12 @@ class ModeManagerNode(Node):
         self._arm = ArmRelay(self._port, self.machine, self._link, self._events, ramp_time_s=s.arm_ramp_time_s,
                              silence_timeout_s=s.arm_cmd_timeout_s, kp=s.arm_kp, kd=s.arm_kd,
                              period_s=1.0 / s.arm_rate_hz)
+        self._body = BodySupervision(self._port, self.machine, self._events, s, self._worker_error)
+        self._body.serve(self._service_side, services)
         self._lowcmd = LowCmdRelay(self._port, self.machine, self._link, self._events,
-                                   silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s)
+                                   silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
+                                   service_active=lambda: self.machine.status().service_active,
+                                   deadman=self._body.watch.deadman_held)
         for relay in (self._lowcmd, self._arm, self._cmd_vel):  # lowcmd first: its damping frames are the urgent ones
             self.machine.add_leave_listener(relay.on_leave)
         # --- cmd_vel relative (a namespace gives each robot its own), Twist or TwistStamped ---
@@ -145,6 +150,7 @@ class ModeManagerNode(Node):
         self._estop.start()
         self._supervisor = PeriodicWorker("supervisor", s.supervise_rate_hz, self._supervise, self._worker_error)
         self._supervisor.start()
+        self._body.start()
 
         # --- the head LED shows the mode. Its own worker *reads* the mode (no leave listener, no
         # machine lock held while it talks to the robot), so a slow voice service never delays an e-stop.
@@ -182,6 +188,7 @@ class ModeManagerNode(Node):
         for publisher in self._state_out:
             publisher.stop()
         self._arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
+        self._body.stop()
         self._supervisor.stop()
         for worker in self._workers:
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
@@ -316,11 +323,17 @@ class ModeManagerNode(Node):
             last_error=status.last_error,
             robot_mismatch=status.robot_mismatch,
             reasserts=status.reasserts,
+            faults=list(status.faults),
+            holds=list(status.holds),
+            warnings=list(self._body.monitor.warnings()),
         ))
 
     def _publish_diagnostics(self) -> None:
-        self._diag_pub.publish(build_diagnostics(self.get_clock().now().to_msg(), self.get_fully_qualified_name(),
-                                                 self.machine.status(), self._link.report(), self._events.counts()))
+        status, name = self.machine.status(), self.get_fully_qualified_name()
+        array = build_diagnostics(self.get_clock().now().to_msg(), name, status, self._link.report(),
+                                  self._events.counts())
+        array.status.extend(self._body.diagnostics(name, status.mode))
+        self._diag_pub.publish(array)
 
     # --- logging ---------------------------------------------------------------------------------
     def _on_record(self, record: TransitionRecord) -> None:

@@ -15,10 +15,12 @@ from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from g1_mode_manager.core.body.checks import BY_NAME as BODY_CHECKS
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
+from g1_mode_manager.protocol.remote import key_mask
 
 
 @dataclass(frozen=True)
@@ -64,10 +66,28 @@ class Settings:
     head_led_high_level: str = "0 255 0 pulse 2.0"
     head_led_low_level: str = "255 120 0 pulse 1.0"
     head_led_emergency: str = "255 0 0 flash 0.2"
+    head_led_fault: str = "255 80 0 flash 0.5"
     announce_modes: bool = False
     voice_timeout_s: float = 0.5
     joint_state_rate_hz: float = 0.0
     cmd_vel_stamped: bool = False
+    # --- the robot's body: checks (thresholds from core/body/checks.py), FAULT, the remote ---
+    body_checks_enabled: bool = True
+    body_check_rate_hz: float = 100.0
+    body_check_slow_rate_hz: float = 20.0
+    tilt_limit_rad: float = BODY_CHECKS["tilt"].threshold
+    spin_limit_rad_s: float = BODY_CHECKS["spin"].threshold
+    joint_speed_limit_rad_s: float = BODY_CHECKS["joint_speed"].threshold
+    winding_limit_c: float = BODY_CHECKS["winding_overheat"].threshold
+    casing_limit_c: float = BODY_CHECKS["casing_overheat"].threshold
+    winding_critical_c: float = BODY_CHECKS["winding_critical"].threshold
+    casing_critical_c: float = BODY_CHECKS["casing_critical"].threshold
+    battery_low_pct: float = BODY_CHECKS["battery_low"].threshold
+    battery_critical_pct: float = BODY_CHECKS["battery_critical"].threshold
+    state_lost_s: float = BODY_CHECKS["state_lost"].threshold
+    fault_clear_hold_s: float = 2.0
+    remote_estop_keys: str = "L2+B"
+    lowcmd_deadman_key: str = ""
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
@@ -77,6 +97,10 @@ class Settings:
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
 
+    def body_thresholds(self) -> dict[str, float]:
+        """Body check name -> threshold, as set."""
+        return {check: getattr(self, name) for check, name in BODY_THRESHOLD_PARAMETERS.items()}
+
     def led_looks(self) -> dict[Mode, str]:
         """The head LED table: one 'R G B pattern period' text per mode."""
         return {mode: getattr(self, name) for mode, name in LED_PARAMETERS.items()}
@@ -85,7 +109,14 @@ class Settings:
 #: The parameter that holds each mode's head LED look.
 LED_PARAMETERS: dict[Mode, str] = {Mode.UNINITIALIZED: "head_led_uninitialized", Mode.IDLE: "head_led_idle",
                                    Mode.HIGH_LEVEL: "head_led_high_level", Mode.LOW_LEVEL: "head_led_low_level",
-                                   Mode.EMERGENCY: "head_led_emergency"}
+                                   Mode.EMERGENCY: "head_led_emergency", Mode.FAULT: "head_led_fault"}
+#: The parameter that holds each body check's threshold.
+BODY_THRESHOLD_PARAMETERS: dict[str, str] = {
+    "tilt": "tilt_limit_rad", "spin": "spin_limit_rad_s", "joint_speed": "joint_speed_limit_rad_s",
+    "winding_overheat": "winding_limit_c", "casing_overheat": "casing_limit_c",
+    "winding_critical": "winding_critical_c", "casing_critical": "casing_critical_c",
+    "battery_low": "battery_low_pct", "battery_critical": "battery_critical_pct", "state_lost": "state_lost_s",
+}
 
 
 _DESCRIPTIONS: dict[str, str] = {
@@ -138,9 +169,29 @@ _DESCRIPTIONS: dict[str, str] = {
     "head_led_high_level": "Head LED in HIGH_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
     "head_led_low_level": "Head LED in LOW_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
     "head_led_emergency": "Head LED in EMERGENCY: 'R G B [solid|pulse|flash] [period_s]'.",
+    "head_led_fault": "Head LED in FAULT: 'R G B [solid|pulse|flash] [period_s]'.",
     "announce_modes": "Announce every mode change through the robot's speaker (TTS).",
     "voice_timeout_s": "Timeout of one head LED or TTS call, s (the LED worker waits, nothing else does).",
     "joint_state_rate_hz": "Rate of joint_states (sensor_msgs/JointState) and ~/imu from rt/lowstate; 0 = off, Hz.",
+    "body_checks_enabled": "Watch the robot's body (falls, heat, battery, a lost state stream) and react per mode "
+    "(warn, hold, FAULT). The remote's e-stop works either way.",
+    "body_check_rate_hz": "Rate of the body checks while rt/lowstate is received (IDLE, LOW_LEVEL, arms in play), Hz.",
+    "body_check_slow_rate_hz": "Rate of the body checks on rt/lf/lowstate alone (an idle HIGH_LEVEL), Hz.",
+    "tilt_limit_rad": "A fall: body z axis further than this from vertical while something holds the robot up, rad.",
+    "spin_limit_rad_s": "Any gyro axis faster than this while something holds the robot up, rad/s.",
+    "joint_speed_limit_rad_s": "Any joint faster than this while something holds the robot up, rad/s.",
+    "winding_limit_c": "Hottest motor winding (temperature[1]) above this: LOW_LEVEL FAULT, HIGH_LEVEL hold, degC.",
+    "casing_limit_c": "Hottest motor casing (temperature[0]) above this: LOW_LEVEL FAULT, HIGH_LEVEL hold, degC.",
+    "winding_critical_c": "Hottest winding above this: FAULT in every mode, degC.",
+    "casing_critical_c": "Hottest casing above this: FAULT in every mode, degC.",
+    "battery_low_pct": "Battery state of charge below this: a warning, %.",
+    "battery_critical_pct": "Battery below this: no new motion in HIGH_LEVEL and LOW_LEVEL, %.",
+    "state_lost_s": "No robot state (rt/lowstate, or rt/lf/lowstate) for this long: FAULT in LOW_LEVEL, s.",
+    "fault_clear_hold_s": "~/clear_fault succeeds only once every tripped check has been clear this long, s.",
+    "remote_estop_keys": "Keys of the robot's remote that e-stop in every mode when held together, e.g. 'L2+B' "
+    "(the combination the built-in controller damps on); '' = off.",
+    "lowcmd_deadman_key": "LOW_LEVEL dead-man: user lowcmd passes only while this remote key (or 'A+B') is held, "
+    "damping frames otherwise; '' = off.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }
@@ -150,6 +201,10 @@ _RANGES: dict[str, tuple[float, float]] = {
     "move_duration_s": (0.1, MAX_MOVE_DURATION_S),  # continuous Moves (864000 s) would outlive a dead node
     "joint_state_rate_hz": (0.0, 1000.0),  # 0 = off
     "sportmodestate_rate_hz": (0.0, 1000.0),  # 0 = off
+    "battery_low_pct": (0.0, 100.0),
+    "battery_critical_pct": (0.0, 100.0),
+    "body_check_rate_hz": (1.0, 500.0),
+    "body_check_slow_rate_hz": (1.0, 500.0),
 }
 
 
@@ -192,7 +247,18 @@ def declare_settings(node: Node) -> Settings:
             LedLook.parse(values[name])
         except ValueError as exc:
             raise ValueError(f"parameter {name}: {exc}") from None
+    for name in ("remote_estop_keys", "lowcmd_deadman_key"):
+        try:
+            parse_keys(values[name])
+        except ValueError as exc:
+            raise ValueError(f"parameter {name}: {exc}") from None
     return Settings(**values)
+
+
+def parse_keys(text: str) -> int:
+    """'L2+B' -> the remote's key mask; '' -> 0 (off). Raises ValueError naming the unknown key."""
+    names = [part.strip() for part in text.split("+") if part.strip()]
+    return key_mask(names) if names else 0
 
 
 def _read_old_names(node: Node) -> dict[str, object]:

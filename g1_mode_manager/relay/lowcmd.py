@@ -1,4 +1,5 @@
-"""~/lowcmd -> rt/lowcmd in LOW_LEVEL only; silence, link loss and leaving LOW_LEVEL turn into damping frames."""
+"""~/lowcmd -> rt/lowcmd in LOW_LEVEL only; silence, link loss, a body check's hold, a released dead-man key
+and leaving LOW_LEVEL turn into damping frames."""
 
 from __future__ import annotations
 
@@ -25,12 +26,18 @@ class LowCmdRelay:
     The gate check and the write are one step under the machine's forward gate, so no user frame
     leaves after the mode left LOW_LEVEL or an e-stop began. On leaving LOW_LEVEL (``on_leave``)
     damping frames go out before the next mode's first robot call, and for ``exit_damping_s`` more
-    when the robot stays in debug mode (IDLE), so the frame the drivers hold is a damping one.
+    when the robot stays in debug mode (IDLE), so the frame the drivers hold is a damping one. After an
+    e-stop or a protective stop they go on until the high-level service is known active again
+    (``service_active``): until then nothing else holds the robot. While LOW_LEVEL is held by a body check,
+    and while the optional dead-man key (``deadman``) is released, damping frames replace the user's.
     """
 
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
-                 silence_timeout_s: float, exit_damping_s: float,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 silence_timeout_s: float, exit_damping_s: float, service_active: Callable[[], bool],
+                 deadman: Callable[[], bool] = lambda: True,
+                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+        self._service_active = service_active
+        self._deadman = deadman
         self._port = port
         self._gate = gate
         self._link = link
@@ -58,10 +65,15 @@ class LowCmdRelay:
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
             return str(exc)
         frame = full_frame(targets)
+        deadman = self._deadman()
         with self._gate.forwarding(modes.allows_low_level_commands) as allowed:
-            if allowed:
+            if allowed and deadman:
                 self._watchdog.feed()
                 return self._write(frame, "lowcmd_sent")
+        if allowed:
+            self._events.count("lowcmd_deadman_released")
+            self._write(damping_frame(), "damping_frames_sent")
+            return "dead-man key released: a damping frame was sent instead"
         return self._drop(f"mode is {self._gate.mode.name}")
 
     def on_leave(self, source: Mode, target: Mode) -> None:
@@ -70,27 +82,35 @@ class LowCmdRelay:
             return
         self._watchdog.reset()
         sent = sum(self._write(damping_frame(), "exit_damping_frames_sent") is None for _ in range(EXIT_BURST))
-        if target is Mode.IDLE:  # no robot step follows: the robot stays in debug mode, holding what came last
+        if target is not Mode.HIGH_LEVEL:  # no SelectMode is under way or none has been seen to work yet
             with self._lock:
                 self._damp_until = self._clock() + self._exit_damping_s
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
 
     def busy(self) -> bool:
-        """In LOW_LEVEL (damping on silence or link loss) and while exit damping is due; otherwise the
-        worker may sleep until woken (a mode change)."""
-        if self._gate.allows_low_level_commands():
-            return True
+        """In LOW_LEVEL (damping on silence, link loss, a hold, a released dead-man) and while damping after
+        leaving it is due; otherwise the worker may sleep until woken (a mode change)."""
+        return self._gate.allows_low_level_commands() or self._held_in_low_level() or self._exit_damping_due()
+
+    def _held_in_low_level(self) -> bool:
+        return self._gate.mode is Mode.LOW_LEVEL and self._gate.holding_motion()
+
+    def _exit_damping_due(self) -> bool:
+        mode = self._gate.mode
         with self._lock:
-            return self._clock() < self._damp_until
+            due = self._clock() < self._damp_until
+        if mode is Mode.IDLE:
+            return due
+        return mode in (Mode.EMERGENCY, Mode.FAULT) and (due or not self._service_active())
 
     def tick(self, _dt_s: float) -> None:
         if self._gate.allows_low_level_commands():
-            if self._watchdog.expired() or not self._link.link_ok():
+            if self._watchdog.expired() or not self._link.link_ok() or not self._deadman():
                 self._write(damping_frame(), "damping_frames_sent")
             return
-        with self._lock:
-            damping = self._clock() < self._damp_until
-        if damping and self._gate.mode is Mode.IDLE:
+        if self._held_in_low_level():  # a body check holds motion: the user's controller is cut off
+            self._write(damping_frame(), "damping_frames_sent")
+        elif self._exit_damping_due():
             self._write(damping_frame(), "exit_damping_frames_sent")
 
     def _drop(self, why: str) -> str:

@@ -21,10 +21,14 @@ class PeriodicWorker:
 
     def __init__(self, name: str, rate_hz: float, step: Callable[[float], None],
                  on_error: Callable[[BaseException], None] | None = None,
-                 busy: Callable[[], bool] | None = None) -> None:  # fmt: skip
+                 busy: Callable[[], bool] | None = None,
+                 period_s: Callable[[], float] | None = None) -> None:  # fmt: skip
+        """``period_s`` (optional) is asked after every step for the time to the next one (a worker whose
+        rate follows its input's), instead of 1 / rate_hz."""
         if not rate_hz > 0.0:
             raise ValueError(f"{name}: rate must be > 0 Hz, got {rate_hz}")
         self._period = 1.0 / rate_hz
+        self._period_of = period_s
         self._step = step
         self._on_error = on_error
         self._busy = busy
@@ -72,4 +76,6 @@ class PeriodicWorker:
                 if self._on_error is not None:
                     self._on_error(exc)
             last = now
+            if self._period_of is not None:
+                self._period = self._period_of()
             next_tick = max(next_tick + self._period, time.monotonic())

@@ -15,11 +15,13 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
-from g1_mode_manager.core.port import MotorCommand, PendingReply, RobotError, SportState
+from g1_mode_manager.core.port import MotorCommand, PendingReply, RobotError, SportState, StateSample
+from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
 from g1_mode_manager.protocol.dds import init_channels
 from g1_mode_manager.protocol.idl import SportModeState_
 from g1_mode_manager.sdk.arm_sdk import ArmSdkWriter
+from g1_mode_manager.sdk.battery_reader import BatteryReader
 from g1_mode_manager.sdk.loco_client import LocoClient
 from g1_mode_manager.sdk.lowcmd import LowCmdWriter
 from g1_mode_manager.sdk.motion_switcher import MotionSwitcherClient
@@ -53,6 +55,8 @@ class UnitreeRobot:
         self._arm: ArmSdkWriter | None = None
         self._lowcmd: LowCmdWriter | None = None
         self._lowstate: LowStateReader | None = None
+        self._lf_lowstate: LowStateReader | None = None  # always received: the body checks' cheap stream
+        self._battery: BatteryReader | None = None
         self._lowstate_wanted = True
         self._sport: SportStateReader | None = None
         self._ready = False
@@ -78,6 +82,8 @@ class UnitreeRobot:
                 init_channels(self.domain, self.interface)  # robot type compat applied before any topic
                 self._lowstate = LowStateReader()
                 self._lowstate.set_receiving(self._lowstate_wanted)
+                self._lf_lowstate = LowStateReader(topics.LF_LOWSTATE)
+                self._battery = BatteryReader()
                 self._sport = SportStateReader()
                 if self._sport_listener is not None:
                     self._sport.set_listener(self._relay_sport_state)
@@ -217,6 +223,20 @@ class UnitreeRobot:
         snapshot, _stamp, count = self._lowstate.latest()
         return None if snapshot is None else (snapshot.data, count)
 
+    def state_sample(self) -> StateSample | None:
+        best: StateSample | None = None
+        now = time.monotonic()
+        for reader, low_rate in ((self._lowstate, False), (self._lf_lowstate, True)):
+            if reader is None:
+                continue
+            snapshot, stamp, _ = reader.latest()
+            if snapshot is not None and (best is None or now - stamp < best.age_s):
+                best = StateSample(snapshot.data, now - stamp, low_rate)
+        return best
+
+    def battery_soc(self) -> tuple[float, float] | None:
+        return None if self._battery is None else self._battery.soc()
+
     def lowstate_restarts(self) -> int:
         return 0 if self._lowstate is None else self._lowstate.restarts
 
@@ -241,7 +261,7 @@ class UnitreeRobot:
             if self._closed:
                 return
             self._closed = True
-            for part in (self._sport, self._lowstate, self._arm, self._lowcmd):
+            for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._arm, self._lowcmd):
                 if part is not None:
                     try:
                         part.close()

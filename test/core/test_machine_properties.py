@@ -30,7 +30,7 @@ from g1_mode_manager.core import modes
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.machine import Outcome, Result
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.transitions import TABLE
+from g1_mode_manager.core.transitions import TABLE, Trigger
 from g1_mode_manager.protocol import api_ids
 
 HISTORY = 8
@@ -197,7 +197,7 @@ TestMachineSequences = MachineSequences.TestCase
 
 # --- races: e-stops fired at random moments into transitions running in another thread ---------------
 RACE_ROUNDS = int(os.environ.get("G1_RACE_ROUNDS", "150"))
-RACE_PAIRS = [pair for pair in TABLE if pair[1] is not Mode.EMERGENCY]
+RACE_PAIRS = [pair for pair, rule in TABLE.items() if pair[1] is not Mode.EMERGENCY and rule.trigger is Trigger.REQUEST]
 PINNED_PAIRS = [pair for pair in RACE_PAIRS if pair[1] is Mode.LOW_LEVEL and pair[0] is not Mode.LOW_LEVEL]
 
 

@@ -7,11 +7,16 @@ import itertools
 import pytest
 
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.transitions import TABLE, TRANSITIONS, Step, Transition, lookup
+from g1_mode_manager.core.transitions import TABLE, TRANSITIONS, Step, Transition, Trigger, lookup
 
-UN, ID, HI, LO, EM = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY
+UN, ID, HI, LO, EM, FA = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.EMERGENCY, Mode.FAULT
 
-LEGAL = {(UN, ID), (UN, HI), (UN, LO), (ID, HI), (ID, LO), (HI, ID), (HI, LO), (LO, ID), (LO, HI)} | {(m, EM) for m in Mode}
+LEGAL_REQUESTS = ({(UN, ID), (UN, HI), (UN, LO), (ID, HI), (ID, LO), (HI, ID), (HI, LO), (LO, ID), (LO, HI)}
+                  | {(m, EM) for m in Mode})
+LEGAL_BODY_CHECK = {(ID, FA), (HI, FA), (LO, FA)}
+LEGAL_CLEAR = {(FA, ID)}
+LEGAL = LEGAL_REQUESTS | LEGAL_BODY_CHECK | LEGAL_CLEAR
+BY_TRIGGER = {Trigger.REQUEST: LEGAL_REQUESTS, Trigger.BODY_CHECK: LEGAL_BODY_CHECK, Trigger.CLEAR_FAULT: LEGAL_CLEAR}
 
 ALL_PAIRS = list(itertools.product(Mode, Mode))
 
@@ -24,9 +29,10 @@ def test_table_holds_exactly_the_legal_pairs_once() -> None:
 
 
 @pytest.mark.parametrize(("source", "target"), ALL_PAIRS, ids=lambda m: m.name)
-def test_every_pair_is_legal_or_refused_with_a_reason(source: Mode, target: Mode) -> None:
-    rule = lookup(source, target)
-    if (source, target) in LEGAL:
+@pytest.mark.parametrize("trigger", list(Trigger), ids=lambda t: t.value)
+def test_every_pair_is_legal_or_refused_with_a_reason(source: Mode, target: Mode, trigger: Trigger) -> None:
+    rule = lookup(source, target, trigger)
+    if (source, target) in BY_TRIGGER[trigger]:
         assert isinstance(rule, Transition)
         assert (rule.source, rule.target) == (source, target)
         assert rule.description
@@ -58,7 +64,9 @@ def test_repeated_estop_is_legal() -> None:
 
 def test_steps_connect_first_only_from_uninitialized() -> None:
     for t in TRANSITIONS:
-        if t.target is EM:
+        if t.target is FA:
+            assert t.steps == (Step.PROTECTIVE_STOP,)
+        elif t.target is EM:
             assert t.steps == (Step.ESTOP,)
         elif t.source is UN:
             assert t.steps[0] is Step.CONNECT
@@ -75,3 +83,17 @@ def test_steps_match_the_target_mode() -> None:
         elif t.target is ID:
             assert Step.ENSURE_SERVICE_ACTIVE not in t.steps
             assert Step.RELEASE_SERVICE not in t.steps
+
+
+def test_fault_is_entered_only_by_a_body_check_and_left_only_by_clear_or_estop() -> None:
+    for source in (ID, HI, LO):
+        assert "not requested" in str(lookup(source, FA))
+        rule = lookup(source, FA, Trigger.BODY_CHECK)
+        assert isinstance(rule, Transition) and rule.steps == (Step.PROTECTIVE_STOP,)
+    for target in (ID, HI, LO):
+        assert "clear_fault" in str(lookup(FA, target))
+    assert isinstance(lookup(FA, ID, Trigger.CLEAR_FAULT), Transition)
+    assert lookup(FA, ID, Trigger.CLEAR_FAULT).steps == ()  # the robot stays damped  # type: ignore[union-attr]
+    assert isinstance(lookup(FA, EM), Transition)
+    assert "nothing leaves EMERGENCY" in str(lookup(EM, FA, Trigger.BODY_CHECK))
+    assert "not connected" in str(lookup(UN, FA, Trigger.BODY_CHECK))

@@ -12,7 +12,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from fakes.fake_robot import FakeRobot
-from g1_mode_manager.core.port import MotorCommand, RobotError, SportState, VoicePort
+from g1_mode_manager.core.port import MotorCommand, RobotError, SportState, StateSample, VoicePort
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
@@ -53,6 +53,9 @@ class FakeRobotPort(FakeRobot):
         self.listener: Callable[[SportState], None] | None = None
         self.restarts = 0
         self.lowstate_wanted = True
+        self.state: bytes | None = None  # a serialised LowState_ for the body checks
+        self.state_age = 0.002
+        self.soc: float | None = None
         #: An event: Move replies written while it is in place wait until it is set (at most 10 s).
         self.move_reply_hold: threading.Event | None = None
         self.lowstate_sample: tuple[bytes, int] | None = None  # raw rt/lowstate: none unless a test sets it
@@ -128,6 +131,13 @@ class FakeRobotPort(FakeRobot):
 
     def close(self) -> None:
         self._record("close")
+
+    def state_sample(self) -> StateSample | None:
+        """The raw LowState_ a test set (``state``), aged ``state_age``; None unless a test sets one."""
+        return None if self.state is None else StateSample(self.state, self.state_age, low_rate=False)
+
+    def battery_soc(self) -> tuple[float, float] | None:
+        return None if self.soc is None else (self.soc, 0.1)
 
     def lowstate_restarts(self) -> int:
         return self.restarts

@@ -23,9 +23,24 @@ class Rig:
         """Reach ``mode`` the ordinary way (asserting it worked); the call log is kept."""
         if mode is Mode.UNINITIALIZED:
             return
+        if mode is Mode.FAULT:  # entered by a body check, never requested
+            self.bring_to(Mode.HIGH_LEVEL)
+            assert self.machine.fault(("tilt: 1.32 rad > 1",))
+            assert self.wait_damp_confirmed(), self.machine.status()
+            return
         outcome = self.machine.estop() if mode is Mode.EMERGENCY else self.machine.request(mode)
         assert outcome.success, outcome
         assert self.machine.mode is mode
+
+
+    def wait_damp_confirmed(self, timeout_s: float = 5.0) -> bool:
+        """The protective stop's sequence runs in a thread of its own: wait (real time) until it verified."""
+        deadline = time.monotonic() + timeout_s
+        while not self.machine.status().damp_confirmed:
+            if time.monotonic() > deadline:
+                return False
+            time.sleep(0.001)
+        return True
 
 
 def make_rig(service: str = ACTIVE, *, real_time: bool = False, **machine_kwargs: object) -> Rig:

@@ -20,6 +20,7 @@ class Gate:
         self.in_transition = False
         self.forward_refuses = False
         self.forwarded = 0
+        self.holds = False
         self.listeners: list[Callable[[Mode, Mode], None]] = []
 
     def _is(self, mode: Mode) -> bool:
@@ -32,7 +33,10 @@ class Gate:
         return self._is(Mode.HIGH_LEVEL)
 
     def allows_low_level_commands(self) -> bool:
-        return self._is(Mode.LOW_LEVEL)
+        return self._is(Mode.LOW_LEVEL) and not self.holds
+
+    def holding_motion(self) -> bool:
+        return self.holds
 
     @contextmanager
     def forwarding(self, predicate: Callable[[Mode], bool]) -> Iterator[bool]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from relay_fakes import Gate
 
 from fakes.fake_robot_port import FakeRobotPort
@@ -14,9 +15,12 @@ from g1_mode_manager.relay.lowcmd import EXIT_BURST, LowCmdRelay
 KNEE = ["left_knee_joint"], [0.5], [], [], [100.0], [1.0]
 
 
-def _relay(port, gate, events, clock) -> LowCmdRelay:
+def _relay(port, gate, events, clock, service: list[bool] | None = None, deadman: list[bool] | None = None) -> LowCmdRelay:
+    """``service[0]``: the high-level service is known active; ``deadman[0]``: the dead-man key is held."""
+    service = [False] if service is None else service
     return LowCmdRelay(port, gate, LinkHealth(port, gate, 0.5), events, silence_timeout_s=0.1,
-                       exit_damping_s=0.2, clock=clock)
+                       exit_damping_s=0.2, service_active=lambda: service[0], clock=clock,
+                       **({} if deadman is None else {"deadman": lambda: deadman[0]}))
 
 
 def _is_damping(frame) -> bool:
@@ -73,16 +77,53 @@ def test_leaving_low_level_damps_before_the_next_mode_and_idle_keeps_damping_a_w
     assert relay.submit(*KNEE) == "mode is IDLE"
 
 
-def test_an_estop_from_low_level_damps_at_once_and_then_stops_writing(events, clock) -> None:
+@pytest.mark.parametrize("stop", [Mode.EMERGENCY, Mode.FAULT], ids=lambda m: m.name)
+def test_a_stop_from_low_level_damps_at_once_and_until_the_service_is_active(events, clock, stop: Mode) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.LOW_LEVEL)
+    service = [False]
+    relay = _relay(port, gate, events, clock, service)
+    gate.add_leave_listener(relay.on_leave)
+    relay.submit(*KNEE)
+    gate.leave(stop)
+    assert len(_frames(port)) == 1 + EXIT_BURST
+    clock.advance(1.0)  # SelectMode takes seconds on a robot: nothing else holds it meanwhile
+    assert relay.busy()
+    relay.tick(0.02)
+    frames = _frames(port)
+    assert len(frames) == 2 + EXIT_BURST and _is_damping(frames[-1])
+    service[0] = True  # the service answers: its Damp holds the robot now
+    assert not relay.busy()
+    relay.tick(0.02)
+    assert len(_frames(port)) == 2 + EXIT_BURST
+
+
+def test_a_hold_in_low_level_replaces_the_user_stream_with_damping(events, clock) -> None:
     port = FakeRobotPort()
     gate = Gate(Mode.LOW_LEVEL)
     relay = _relay(port, gate, events, clock)
-    gate.add_leave_listener(relay.on_leave)
-    relay.submit(*KNEE)
-    gate.leave(Mode.EMERGENCY)
+    assert relay.submit(*KNEE) is None
+    gate.holds = True
+    assert relay.submit(*KNEE) == "mode is LOW_LEVEL"
+    assert relay.busy()
     relay.tick(0.02)
     frames = _frames(port)
-    assert len(frames) == 1 + EXIT_BURST and _is_damping(frames[-1])  # the service is re-selected next
+    assert len(frames) == 2 and _is_damping(frames[-1])
+
+
+def test_the_deadman_passes_user_frames_only_while_its_key_is_held(events, clock) -> None:
+    port = FakeRobotPort()
+    held = [True]
+    relay = _relay(port, Gate(Mode.LOW_LEVEL), events, clock, deadman=held)
+    assert relay.submit(*KNEE) is None
+    assert not _is_damping(_frames(port)[-1])
+    held[0] = False
+    assert "dead-man" in relay.submit(*KNEE)
+    assert _is_damping(_frames(port)[-1])
+    relay.tick(0.02)
+    assert len(_frames(port)) == 3 and _is_damping(_frames(port)[-1])
+    held[0] = True
+    assert relay.submit(*KNEE) is None and not _is_damping(_frames(port)[-1])
 
 
 def test_a_closed_forward_gate_writes_no_user_frame(events, clock) -> None:

@@ -30,6 +30,13 @@ from g1_mode_manager.protocol.fsm import FsmId
 
 
 @dataclass(frozen=True)
+class Registration:
+    source: Mode  # the mode the stop left
+    gen: int  # the e-stop generation it registered as
+    notes: list[str]
+
+
+@dataclass(frozen=True)
 class EstopRun:
     """The outcome of one finished sequence, and which registrations it covered."""
 
@@ -70,20 +77,28 @@ class Estop:
         returns why it failed, if it did."""
         return self.fire_damp_no_reply() if self._state.connected else []
 
-    def estop(self, *, wait: bool, fired: list[str] | None) -> Outcome:
+    def register(self, target: Mode, *, faults: tuple[str, ...] = (),
+                 allowed: Callable[[Mode], bool] | None = None) -> Registration | None:  # fmt: skip
+        """Enter ``target`` (EMERGENCY, or FAULT for a protective stop) under the forward gate, waiting at most
+        ``forward_wait_s`` for it: a running transition is preempted, holds end, the e-stop generation grows,
+        nothing is claimed damped until the robot shows it again. None if ``allowed`` refused the mode."""
         state = self._state
-        start = state.clock()
-        notes = self.shot() if fired is None else list(fired)  # the fastest shot first
+        notes: list[str] = []
         registered = self._gate.lock.acquire(timeout=self._timing.forward_wait_s)
         try:
             with state.lock:
                 source, preempted = state.mode, state.inflight
+                if allowed is not None and not allowed(source):
+                    return None
                 if preempted is not None:
                     preempted.preempted.set()
                     state.inflight = None
-                state.mode = Mode.EMERGENCY
+                state.mode = target
                 state.mismatch = ""
-                state.damp_confirmed = False  # nothing is claimed until the robot shows it again
+                state.holds = ()
+                if target is Mode.FAULT:
+                    state.faults = faults
+                state.damp_confirmed = False
                 state.estop_gen += 1
                 state.version += 1
                 gen = state.estop_gen
@@ -94,12 +109,26 @@ class Estop:
             notes.append("a relay held its write longer than the forward wait")
         if preempted is not None:
             notes.append(f"preempted {preempted.source.name}->{preempted.target.name}")
-        if source is not Mode.EMERGENCY:
-            state.leaving(source, Mode.EMERGENCY)
+        if source is not target:
+            state.leaving(source, target)
         state.notify()
+        return Registration(source, gen, notes)
+
+    def start_sequences(self) -> None:
+        """Run the damping sequence in a thread of its own, unless one runs already (it covers this one)."""
+        if self.claim_runner():
+            threading.Thread(target=self.run_sequences, name="estop_sequence", daemon=True).start()
+
+    def estop(self, *, wait: bool, fired: list[str] | None) -> Outcome:
+        state = self._state
+        start = state.clock()
+        notes = self.shot() if fired is None else list(fired)  # the fastest shot first
+        registration = self.register(Mode.EMERGENCY)
+        assert registration is not None  # an e-stop registers in every mode
+        source, gen = registration.source, registration.gen
+        notes += registration.notes
         if not wait:
-            if self.claim_runner():
-                threading.Thread(target=self.run_sequences, name="estop_sequence", daemon=True).start()
+            self.start_sequences()
             message = "e-stop registered: DampNoReply sent, damping sequence running"
             return self._finish(source, start, Result.REGISTERED, message)
         run = self.run_sequences() if self.claim_runner() else self._join(gen)

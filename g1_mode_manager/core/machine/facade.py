@@ -2,7 +2,8 @@
 
 Beside it, one file per guarantee: ``state.py`` (the fields and their lock, the listeners), ``gate.py``
 (the forward gate and the calls in flight), ``runner.py`` (transitions), ``estop.py`` (the e-stop),
-``supervisor.py`` (EMERGENCY kept true, the robot checked against the mode).
+``supervisor.py`` (EMERGENCY and FAULT kept true, the robot checked against the mode), ``fault.py`` (FAULT,
+holds and the operator's clear).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from contextlib import AbstractContextManager
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.machine.estop import Estop
+from g1_mode_manager.core.machine.fault import FaultStop
 from g1_mode_manager.core.machine.gate import ForwardGate
 from g1_mode_manager.core.machine.runner import TransitionRunner
 from g1_mode_manager.core.machine.state import AlarmListener, LeaveListener, MachineState
@@ -50,6 +52,7 @@ class ModeMachine:
                                         belief_period_s=timing.belief_period_s, sleep=sleep)
         self._estop = Estop(self._state, self._gate, port, timing, poll_interval_s=poll_interval_s, sleep=sleep)
         self._supervisor = Supervisor(self._state, self._gate, self._estop, port, timing)
+        self._fault = FaultStop(self._state, self._gate, self._estop)
 
     # --- what the node reads ---------------------------------------------------------------------
     @property
@@ -85,6 +88,11 @@ class ModeMachine:
     def is_emergency(self) -> bool:
         return self.mode is Mode.EMERGENCY
 
+    def holding_motion(self) -> bool:
+        """A body check holds motion in the current mode (nothing but stopping passes the gate)."""
+        with self._state.lock:
+            return bool(self._state.holds)
+
     # --- what the relays and loco commands go through (see gate.py) ------------------------------
     def forwarding(self, predicate: Callable[[Mode], bool]) -> AbstractContextManager[bool]:
         """Held around one write; yields whether it may pass now (never around a wait for a reply)."""
@@ -94,9 +102,10 @@ class ModeMachine:
         """Held around one hand-back frame: allowed in every mode but EMERGENCY."""
         return self._gate.ramping_out()
 
-    def robot_call(self, allowed: Callable[[Mode], bool]) -> AbstractContextManager[bool]:
-        """Around a blocking robot-changing call: yields whether it may be sent; registered as in flight."""
-        return self._gate.robot_call(allowed)
+    def robot_call(self, allowed: Callable[[Mode], bool], *, stopping: bool = False) -> AbstractContextManager[bool]:
+        """Around a blocking robot-changing call: yields whether it may be sent; registered as in flight.
+        ``stopping`` (damp): a body check's hold does not refuse it."""
+        return self._gate.robot_call(allowed, stopping=stopping)
 
     def add_leave_listener(self, listener: LeaveListener) -> None:
         """``listener(source, target)`` runs in the thread that changes the mode, after the gate closed and
@@ -128,6 +137,19 @@ class ModeMachine:
         e-stop was registered. ``fired``: the caller already sent the first packet (its notes).
         """
         return self._estop.estop(wait=wait, fired=fired)
+
+    # --- the body checks' reactions (see fault.py) -----------------------------------------------
+    def fault(self, faults: tuple[str, ...]) -> bool:
+        """A body check's FAULT: a protective stop, never waiting for the robot; True if FAULT was entered."""
+        return self._fault.enter(faults)
+
+    def hold(self, holds: tuple[str, ...]) -> None:
+        """A body check's HOLD: no new motion in the current mode until clear_fault."""
+        self._fault.hold(holds)
+
+    def clear_fault(self, not_clear_because: Callable[[], str], release: Callable[[], None]) -> Outcome:
+        """The operator's clear: FAULT -> IDLE, or holds released, once every latched check is clear."""
+        return self._fault.clear(not_clear_because, release)
 
     # --- supervision (see supervisor.py) ---------------------------------------------------------
     def supervise(self, fsm_id: int | None = None, state_age_s: float | None = None) -> None:

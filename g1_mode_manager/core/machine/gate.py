@@ -40,21 +40,22 @@ class ForwardGate:
 
     @contextmanager
     def ramping_out(self) -> Iterator[bool]:
-        """Held around one hand-back frame (an arm weight going down): allowed in every mode but
-        EMERGENCY, also while a transition runs (leaving HIGH_LEVEL waits for the ramp-out). After an
-        e-stop nothing but damping reaches the robot."""
+        """Held around one hand-back frame (an arm weight going down): allowed in every mode but EMERGENCY
+        and FAULT, also while a transition runs (leaving HIGH_LEVEL waits for the ramp-out) and while a
+        body check holds motion. After an e-stop or a protective stop nothing but damping reaches the robot."""
         with self.lock:
             with self._state.lock:
-                ok = self._state.mode is not Mode.EMERGENCY
+                ok = self._state.mode not in (Mode.EMERGENCY, Mode.FAULT)
             yield ok
 
     @contextmanager
-    def robot_call(self, allowed: Callable[[Mode], bool]) -> Iterator[bool]:
+    def robot_call(self, allowed: Callable[[Mode], bool], *, stopping: bool = False) -> Iterator[bool]:
         """Around a blocking robot-changing call (a loco command): yields whether it may be sent. The gate
-        is held only for the check and the registration; the call itself runs outside it."""
+        is held only for the check and the registration; the call itself runs outside it. ``stopping``: the
+        call stops the robot (damp), so a body check's hold does not refuse it."""
         state = self._state
         with self.lock, state.lock:
-            ok = state.allows_locked(allowed)
+            ok = state.allows_locked(allowed, stopping=stopping)
             gen = state.estop_gen
             if ok:
                 self._changing_calls += 1

@@ -60,6 +60,8 @@ class TransitionRunner:
                     inflight = Inflight(source, target)
                     state.inflight = inflight
                     state.version += 1
+                elif state.faults and source is Mode.FAULT:
+                    rule = f"{rule}; active faults: {', '.join(state.faults)}"
             if not isinstance(rule, Transition) or inflight is None:
                 return self.refuse(source, target, str(rule), start)
             state.notify()

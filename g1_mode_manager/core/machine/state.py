@@ -60,6 +60,8 @@ class MachineState:
         self.version = 0  # grows with every change a status snapshot shows
         self.estop_gen = 0  # grows with every e-stop registration
         self.reasserts = 0
+        self.faults: tuple[str, ...] = ()  # the body checks that put the robot in FAULT
+        self.holds: tuple[str, ...] = ()  # body checks holding motion in the current mode
         self.late_landing = False  # a robot-changing call returned after an e-stop began
         self.next_belief = 0.0  # when the supervision next checks the robot against the mode
         self.verified_at = float("-inf")  # when an e-stop sequence last saw the robot damped
@@ -85,12 +87,15 @@ class MachineState:
             robot_mismatch=self.mismatch,
             reasserts=self.reasserts,
             version=self.version,
+            faults=self.faults,
+            holds=self.holds,
         )
 
-    def allows_locked(self, predicate: Callable[[Mode], bool]) -> bool:
+    def allows_locked(self, predicate: Callable[[Mode], bool], *, stopping: bool = False) -> bool:
         """Commands pass only in a mode that allows them, never while a transition runs, never while the
-        robot was seen not to match the mode."""
-        return self.inflight is None and not self.mismatch and predicate(self.mode)
+        robot was seen not to match the mode; nothing but a stopping command while a body check holds."""
+        return (self.inflight is None and not self.mismatch and (stopping or not self.holds)
+                and predicate(self.mode))
 
     def allows(self, predicate: Callable[[Mode], bool]) -> bool:
         with self.lock:

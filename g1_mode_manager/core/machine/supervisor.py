@@ -1,9 +1,9 @@
 """The supervision: keeps EMERGENCY true on the robot, and checks every other mode against the robot.
 
 Called periodically by the node (about 10 Hz) with the last rt/sportmodestate:
-- In EMERGENCY a robot seen out of damping (rt/sportmodestate, a periodic CheckMode + GetFsmId, a call
+- In EMERGENCY and FAULT a robot seen out of damping (rt/sportmodestate, a periodic CheckMode + GetFsmId, a call
   that landed after the e-stop began, a sequence that did not verify) is re-selected and re-damped at
-  once, with an alarm; nothing leaves EMERGENCY.
+  once, with an alarm; nothing leaves EMERGENCY, and FAULT only by clear_fault.
 - In HIGH_LEVEL and LOW_LEVEL a CheckMode every ``belief_period_s`` must agree with the mode; otherwise
   forwarding stops (``robot_mismatch``) until an operator requests a mode again.
 """
@@ -40,13 +40,13 @@ class Supervisor:
             mode, connected, transition = state.mode, state.connected, state.inflight is not None
         if not connected and mode is not Mode.EMERGENCY:
             return
-        if mode is Mode.EMERGENCY:
-            self._keep_damped(now, fsm_id, state_age_s)
+        if mode in (Mode.EMERGENCY, Mode.FAULT):
+            self._keep_damped(now, mode, fsm_id, state_age_s)
         elif mode in (Mode.HIGH_LEVEL, Mode.LOW_LEVEL) and not transition:
             self._check_belief(now, mode)
 
-    # --- EMERGENCY -------------------------------------------------------------------------------
-    def _keep_damped(self, now: float, fsm_id: int | None, state_age_s: float | None) -> None:
+    # --- EMERGENCY and FAULT ---------------------------------------------------------------------
+    def _keep_damped(self, now: float, mode: Mode, fsm_id: int | None, state_age_s: float | None) -> None:
         if self._estop.running():
             return
         state, timing = self._state, self._timing
@@ -74,11 +74,11 @@ class Supervisor:
             state.reasserts += 1
             state.damp_confirmed = False
             state.version += 1
-        state.alarm(f"EMERGENCY re-asserted: {why}")
+        state.alarm(f"{mode.name} re-asserted: {why}")
         self._estop.fire_damp_no_reply()
         run = self._estop.run_sequences()
         if run.why is not None:
-            state.alarm(f"EMERGENCY re-assert incomplete: {run.why}")
+            state.alarm(f"{mode.name} re-assert incomplete: {run.why}")
 
     def _verify_now(self) -> str:
         """'' if CheckMode names a service and GetFsmId is Damp, else why not."""
@@ -108,11 +108,11 @@ class Supervisor:
 
     def report_mismatch(self, reason: str, version: int | None = None) -> None:
         """The robot no longer matches the mode (another program, a reboot): stop forwarding until an
-        operator requests a mode again. Ignored in EMERGENCY (supervision handles it there), and if the
-        state changed since ``version`` (the evidence is then stale)."""
+        operator requests a mode again. Ignored in EMERGENCY and FAULT (supervision handles it there), and if
+        the state changed since ``version`` (the evidence is then stale)."""
         state = self._state
         with self._gate.lock, state.lock:
-            if state.mode in (Mode.EMERGENCY, Mode.UNINITIALIZED) or state.inflight is not None or state.mismatch:
+            if state.mode in (Mode.EMERGENCY, Mode.FAULT, Mode.UNINITIALIZED) or state.inflight is not None or state.mismatch:
                 return
             if version is not None and version != state.version:
                 return

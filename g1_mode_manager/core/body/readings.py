@@ -1,0 +1,52 @@
+"""What the body checks read: a few numbers per state sample, computed once from the robot's fields."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from g1_mode_manager.protocol.body_fields import BodyFields
+
+
+@dataclass(frozen=True)
+class BodyReadings:
+    """None: not known (no sample of that stream yet, or the robot does not publish it)."""
+
+    tilt_rad: float | None = None  # angle between the body's z axis and vertical
+    gyro_max: float | None = None  # largest |angular rate| of the three axes, rad/s
+    joint_speed_max: float | None = None  # largest |dq|, rad/s
+    joint_fastest: int = -1  # its motor index
+    winding_max_c: float | None = None
+    winding_hottest: int = -1
+    casing_max_c: float | None = None
+    casing_hottest: int = -1
+    soc_pct: float | None = None  # battery state of charge
+    state_age_s: float | None = None  # age of the newest state sample (None: none ever came)
+
+
+def tilt_of(w: float, x: float, y: float, z: float) -> float:
+    """Angle between the body z axis and the world's vertical for an attitude quaternion (w, x, y, z)."""
+    norm = w * w + x * x + y * y + z * z
+    if norm <= 0.0:
+        return math.nan
+    cos_tilt = 1.0 - 2.0 * (x * x + y * y) / norm
+    return math.acos(max(-1.0, min(1.0, cos_tilt)))
+
+
+def readings_of(fields: BodyFields, *, state_age_s: float | None, soc_pct: float | None) -> BodyReadings:
+    speeds = [abs(v) for v in fields.dq]
+    fastest = max(range(len(speeds)), key=speeds.__getitem__)
+    winding = max(range(len(fields.winding_c)), key=fields.winding_c.__getitem__)
+    casing = max(range(len(fields.casing_c)), key=fields.casing_c.__getitem__)
+    return BodyReadings(
+        tilt_rad=tilt_of(*fields.quaternion),
+        gyro_max=max(abs(v) for v in fields.gyroscope),
+        joint_speed_max=speeds[fastest],
+        joint_fastest=fastest,
+        winding_max_c=float(fields.winding_c[winding]),
+        winding_hottest=winding,
+        casing_max_c=float(fields.casing_c[casing]),
+        casing_hottest=casing,
+        soc_pct=soc_pct,
+        state_age_s=state_age_s,
+    )

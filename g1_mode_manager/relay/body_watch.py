@@ -1,0 +1,135 @@
+"""The body watch: reads the robot's state, runs the body checks and the remote, and acts through the
+mode machine. ROS-free; the node runs ``step`` on a thread of its own and reads what it found.
+
+- Every step takes the freshest state sample (rt/lowstate while it is received, at ``fast_period_s``;
+  otherwise rt/lf/lowstate at ``slow_period_s``, so an idle HIGH_LEVEL never needs the 500 Hz stream),
+  decodes the few fields the checks read and evaluates them (``BodyMonitor``).
+- A FAULT reaction enters FAULT (the machine's protective stop never waits for the robot); a HOLD holds
+  motion in the mode; WARN is only reported.
+- The remote: a held e-stop combination (default L2+B) e-stops in every mode, once per press; the optional
+  dead-man key is what the lowcmd relay asks before it forwards a user frame.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Protocol
+
+from g1_mode_manager.core.body.checks import UPRIGHT_FSM_IDS, Reaction
+from g1_mode_manager.core.body.monitor import BodyMonitor
+from g1_mode_manager.core.body.readings import BodyReadings, readings_of
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.core.records import MachineStatus, Outcome
+from g1_mode_manager.protocol.body_fields import decode_body_fields
+from g1_mode_manager.relay.events import RelayEvents
+
+#: A remote frame older than this says nothing about the keys held now (rt/lowstate: 2 ms; lf: 50 ms), s.
+REMOTE_FRESH_S = 0.2
+#: rt/sportmodestate older than this says nothing about the controller's state, s.
+SPORT_FRESH_S = 0.5
+
+
+class BodyMachine(Protocol):
+    """What the body watch asks of the mode machine."""
+
+    def status(self) -> MachineStatus: ...
+    def fault(self, faults: tuple[str, ...]) -> bool: ...
+    def hold(self, holds: tuple[str, ...]) -> None: ...
+    def estop_shot(self) -> list[str]: ...
+    def estop(self, *, wait: bool = True, fired: list[str] | None = None) -> Outcome: ...
+
+
+class BodyWatch:
+    def __init__(self, port: RobotPort, machine: BodyMachine, monitor: BodyMonitor, events: RelayEvents, *,
+                 estop_keys: int, deadman_keys: int, fast_period_s: float, slow_period_s: float,
+                 enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+        self._port = port
+        self._machine = machine
+        self.monitor = monitor
+        self._events = events
+        self._estop_keys = estop_keys
+        self._deadman_keys = deadman_keys
+        self._fast_period_s = fast_period_s
+        self._slow_period_s = slow_period_s
+        self._enabled = enabled
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._keys = 0  # the remote's key field, as of _keys_at
+        self._keys_at = float("-inf")
+        self._estop_pressed = False  # the combination was held at the last look (one e-stop per press)
+        self.readings = BodyReadings()
+
+    def period_s(self) -> float:
+        """How long until the next step: short while rt/lowstate is received, long on rt/lf/lowstate alone."""
+        return self._fast_period_s if self._port.lowstate_receiving() else self._slow_period_s
+
+    def step(self) -> None:
+        status = self._machine.status()
+        if status.mode is Mode.UNINITIALIZED:
+            return
+        now = self._clock()
+        sample = self._port.state_sample()
+        battery = self._port.battery_soc()
+        soc = None if battery is None else battery[0]
+        if sample is None:
+            readings = BodyReadings(soc_pct=soc)
+        else:
+            fields = decode_body_fields(sample.data)
+            readings = readings_of(fields, state_age_s=sample.age_s, soc_pct=soc)
+            if sample.age_s <= REMOTE_FRESH_S:
+                with self._lock:
+                    self._keys = int.from_bytes(fields.remote[2:4], "little")
+                    self._keys_at = now - sample.age_s
+        self.readings = readings
+        self._remote_estop(status, now)
+        if not self._enabled:
+            return
+        trips = self.monitor.evaluate(readings, status.mode, self._upright_expected(status), now)
+        faults = tuple(t.text for t in trips if t.reaction is Reaction.FAULT)
+        holds = tuple(t.text for t in trips if t.reaction is Reaction.HOLD)
+        if faults:
+            self._events.log("error", "body_fault", f"body check tripped in {status.mode.name}: {', '.join(faults)}: "
+                             "protective stop (FAULT)")
+            self._machine.fault(faults)
+        if holds:
+            self._events.log("error", "body_hold", f"body check tripped in {status.mode.name}: {', '.join(holds)}: "
+                             "no new motion until ~/clear_fault")
+            self._machine.hold(holds)
+
+    def _upright_expected(self, status: MachineStatus) -> bool:
+        """Something is meant to hold the robot upright: the user's controller in LOW_LEVEL; in IDLE and
+        HIGH_LEVEL the built-in controller in a state that stands or walks. Not during a transition (it
+        changes who holds the robot: LOW_LEVEL's entry leaves it limp), nor in EMERGENCY and FAULT."""
+        if status.transition_in_progress:
+            return False
+        if status.mode is Mode.LOW_LEVEL:
+            return True
+        if status.mode not in (Mode.IDLE, Mode.HIGH_LEVEL) or (status.service_known and not status.service_active):
+            return False
+        sport = self._port.sport_state()
+        return sport is not None and sport.age_s <= SPORT_FRESH_S and sport.fsm_id in UPRIGHT_FSM_IDS
+
+    def _remote_estop(self, status: MachineStatus, now: float) -> None:
+        if not self._estop_keys:
+            return
+        pressed = self.keys_held(self._estop_keys, now)
+        first, self._estop_pressed = pressed and not self._estop_pressed, pressed
+        if not first or status.mode is Mode.EMERGENCY:
+            return
+        notes = self._machine.estop_shot()
+        self._events.log("error", "remote_estop", f"E-STOP from the robot's remote (keys held) in {status.mode.name}")
+        self._machine.estop(wait=False, fired=notes)
+
+    def keys_held(self, mask: int, now: float | None = None) -> bool:
+        """The remote's keys in ``mask`` are all held, as of a frame no older than REMOTE_FRESH_S."""
+        with self._lock:
+            keys, at = self._keys, self._keys_at
+        fresh = (self._clock() if now is None else now) - at <= REMOTE_FRESH_S
+        return fresh and keys & mask == mask
+
+    def deadman_held(self) -> bool:
+        """The LOW_LEVEL dead-man: True while its key is held (always True when no dead-man is set)."""
+        return not self._deadman_keys or self.keys_held(self._deadman_keys)
