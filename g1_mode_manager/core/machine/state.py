@@ -123,38 +123,32 @@ class MachineState:
 
     def leaving(self, source: Mode, target: Mode) -> None:
         for listener in self._leave_listeners:
-            try:
-                listener(source, target)
-            except Exception as exc:
-                self.note_callback_error("leave listener", exc)
+            self._call("leave listener", listener, source, target)
 
     def emit(self, record: TransitionRecord) -> None:
         """Hand a record (already in the history) to the record listener, then a fresh status."""
-        if self._on_record is not None:
-            try:
-                self._on_record(record)
-            except Exception as exc:
-                self.note_callback_error("on_record", exc)
+        self._call("on_record", self._on_record, record)
         self.notify()
 
     def notify(self) -> None:
-        if self._on_change is None:
-            return
-        try:
-            self._on_change(self.status())
-        except Exception as exc:
-            self.note_callback_error("on_change", exc)
+        if self._on_change is not None:
+            self._call("on_change", self._on_change, self.status())
 
     def alarm(self, text: str) -> None:
         with self.lock:
             self.last_error = text
             self.version += 1
-        if self._on_alarm is not None:
-            try:
-                self._on_alarm(text)
-            except Exception as exc:
-                self.note_callback_error("on_alarm", exc)
+        self._call("on_alarm", self._on_alarm, text)
         self.notify()
+
+    def _call(self, name: str, listener: Callable[..., object] | None, *args: object) -> None:
+        """A listener's exception is kept in last_error; it never reaches the transition or the e-stop."""
+        if listener is None:
+            return
+        try:
+            listener(*args)
+        except Exception as exc:
+            self.note_callback_error(name, exc)
 
     def note_callback_error(self, name: str, exc: Exception) -> None:
         with self.lock:
