@@ -7,6 +7,7 @@ import cyclonedds.idl.annotations as annotate
 import cyclonedds.idl.types as types
 from unitree_sdk2py.idl.unitree_api.msg.dds_ import Request_, Response_
 from unitree_sdk2py.idl.unitree_hg.msg.dds_ import (  # re-exported: import message types from here
+    BmsState_,
     IMUState_,
     LowCmd_,
     LowState_,
@@ -15,6 +16,7 @@ from unitree_sdk2py.idl.unitree_hg.msg.dds_ import (  # re-exported: import mess
 )
 
 __all__ = [
+    "BmsState_",
     "IMUState_",
     "LowCmd_",
     "LowState_",
