@@ -38,5 +38,10 @@ _LEG = (88.0, 139.0, 88.0, 139.0, 50.0, 50.0)
 _ARM = (25.0, 25.0, 25.0, 25.0, 25.0, 5.0, 5.0)
 EFFORT_LIMIT_NM: Final = (*_LEG, *_LEG, 88.0, 50.0, 50.0, *_ARM, *_ARM)
 
+#: MotorState_.temperature holds two int16 in deg C: [casing, winding] (Unitree's terminations.hpp checks
+#: temperature[0] against the casing limit and temperature[1] against the winding limit).
+CASING_TEMPERATURE_INDEX: Final = 0
+WINDING_TEMPERATURE_INDEX: Final = 1
+
 #: Damping gain used when a joint must go soft (kp 0), N m s / rad.
 DAMPING_KD: Final = 8.0

@@ -6,10 +6,11 @@ LOWCMD: Final = "rt/lowcmd"
 LOWSTATE: Final = "rt/lowstate"
 ARM_SDK: Final = "rt/arm_sdk"
 SPORTMODESTATE: Final = "rt/sportmodestate"
-#: The robot's low-rate copies: rt/lowstate at about 20 Hz, and the battery (unitree_hg BmsState_).
+#: The robot's low-rate copies: the same LowState_ decimated, and the battery (unitree_hg BmsState_).
 LF_LOWSTATE: Final = "rt/lf/lowstate"
 LF_BMSSTATE: Final = "rt/lf/bmsstate"
 
 #: Rates of the robot's state topics in Hz.
 LOWSTATE_RATE_HZ: Final = 500.0
 SPORTMODESTATE_RATE_HZ: Final = 50.0
+LF_LOWSTATE_RATE_HZ: Final = 20.0

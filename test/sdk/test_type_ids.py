@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from g1_mode_manager.protocol.dds import apply_robot_type_compat, minimal_type_id
-from g1_mode_manager.protocol.idl import LowCmd_, LowState_, Request_, Response_, SportModeState_
+from g1_mode_manager.protocol.idl import BmsState_, LowCmd_, LowState_, Request_, Response_, SportModeState_
 
 # The robot's C++ SDK's minimal type identifiers: the 0xf1 kind byte, then the 14-byte equivalence hash.
 ROBOT_TYPE_IDS = {
@@ -14,6 +14,7 @@ ROBOT_TYPE_IDS = {
     SportModeState_: "f128cfd7f01c80e828b3936ef9adcd",
     Request_: "f1cba4dc965d393ada76b4de081925",
     Response_: "f148c997d379c3e18c530b5f8fe946",
+    BmsState_: "f14b98d809a63f63c7cb31a818506b",  # unitree_sdk2 include/unitree/idl/hg/BmsState_.hpp type map
 }
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -128,6 +129,52 @@ def test_faults_invalid_is_refused_and_previous_kept(text: str) -> None:
     with pytest.raises(FaultConfigError):
         faults.set_json(text)
     assert faults.drops(1001)
+
+
+def test_faults_parse_the_body_injections() -> None:
+    c = parse_faults(json.dumps({"motor_temperature": {"3": [90, 130.5], "28": [20, 21]}, "battery_soc": 15,
+                                 "remote_keys": ["L2", "B"], "push": {"force": 150, "direction": [0, 2], "duration": 0.3},
+                                 "freeze_lowstate": True}))  # fmt: skip
+    assert c.motor_temperature == {3: (90.0, 130.5), 28: (20.0, 21.0)}
+    assert c.battery_soc == 15.0 and c.remote_keys == {"L2", "B"} and c.freeze_lowstate
+    assert c.push is not None and c.push.force_xy == pytest.approx((0.0, 150.0)) and c.push.duration_s == 0.3
+    angled = parse_faults('{"push": {"force": 100, "direction": 3.141592653589793, "duration": 1}}').push
+    assert angled is not None and angled.force_xy == pytest.approx((-100.0, 0.0))
+    assert parse_faults(json.dumps(c.to_json())) == c  # the status shows what parses back
+    none = parse_faults("")
+    assert none.battery_soc is None and none.push is None and not none.remote_keys and not none.freeze_lowstate
+
+
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [('{"motor_temperature": {"29": [1, 2]}}', "motor index must be 0..28"),
+     ('{"motor_temperature": {"x": [1, 2]}}', "motor index"),
+     ('{"motor_temperature": {"3": [90]}}', "[casing, winding]"),
+     ('{"motor_temperature": {"3": [90, 999]}}', "within -40..200"),
+     ('{"motor_temperature": [90, 130]}', "must be an object"),
+     ('{"battery_soc": 101}', "0..100"), ('{"battery_soc": "15"}', "expected a number"),
+     ('{"remote_keys": ["L2", "b"]}', "unknown remote key 'b'"), ('{"remote_keys": "L2"}', "list of key names"),
+     ('{"push": {"force": 100, "direction": [0, 0], "duration": 0.2}}', "must not be zero"),
+     ('{"push": {"force": 0, "direction": [1, 0], "duration": 0.2}}', "push.force"),
+     ('{"push": {"force": 100, "direction": [1, 0], "duration": 9}}', "push.duration"),
+     ('{"push": {"force": 100, "direction": [1, 0, 0], "duration": 1}}', "push.direction"),
+     ('{"push": {"force": 100, "duration": 1}}', "push must be an object"),
+     ('{"freeze_lowstate": 1}', "freeze_lowstate must be true or false")],
+)  # fmt: skip
+def test_faults_body_injections_refused_with_a_reason(text: str, why: str) -> None:
+    faults = Faults(parse_faults('{"battery_soc": 50}'))
+    with pytest.raises(FaultConfigError, match=re.escape(why)):
+        faults.set_json(text)
+    assert faults.config.battery_soc == 50
+
+
+def test_faults_tell_a_listener_every_change() -> None:
+    faults = Faults()
+    seen: list[tuple[Any, Any]] = []
+    faults.on_change = lambda old, new: seen.append((old, new))
+    faults.set_json('{"remote_keys": ["L2", "B"]}')
+    faults.set_json("")
+    assert [(o.remote_keys, n.remote_keys) for o, n in seen] == [(set(), {"L2", "B"}), ({"L2", "B"}, set())]
 
 
 def test_delay_ranges_draw_a_delay_per_request_replayably() -> None:
@@ -361,3 +408,13 @@ def test_bridge_node_parameters_validate_and_forward() -> None:
         node.destroy_node()
     finally:
         rclpy.try_shutdown(context=context)
+
+
+def test_cli_gantry_and_soc_reach_the_bridge() -> None:
+    from g1_sim.bridge.main import _overrides, parse_cli
+
+    args = parse_cli(["--gantry", "--soc", "35"])
+    assert _overrides(args)["gantry"] is True and args.soc == 35.0
+    assert "gantry" not in _overrides(parse_cli([])) and parse_cli([]).soc == 90.0
+    with pytest.raises(SystemExit):
+        parse_cli(["--soc", "120"])

@@ -190,6 +190,26 @@ def test_lowstate_shapes_and_values(sim) -> None:
     assert sim.sport_state() == (FsmId.STAND_UP, FsmMode.STATIC)
 
 
+@pytest.mark.sim
+def test_remote_l2_b_damps_while_a_service_is_active_only(sim) -> None:
+    sim.set_remote_keys(frozenset({"L2"}))
+    sim.step(25)
+    assert sim.get_fsm_id() == (OK, FsmId.STAND_UP)  # L2 alone does nothing
+    sim.set_remote_keys(frozenset({"L2", "B", "up"}))
+    sim.step(25)  # the firmware looks at 50 Hz
+    assert sim.get_fsm_id() == (OK, FsmId.DAMP) and sim.counters["remote_damps"] == 1
+    assert sim.set_fsm_id(FsmId.STAND_UP) == OK  # still held: pressed once, not re-damped while held
+    sim.step(25)
+    assert sim.get_fsm_id()[1] != FsmId.DAMP
+
+    sim.set_remote_keys(frozenset())
+    assert sim.release_mode() == OK
+    sim.set_remote_keys(frozenset({"L2", "B"}))
+    sim.step(25)
+    assert sim.fsm_id == FsmId.ZERO_TORQUE and sim.counters["remote_damps"] == 1  # debug mode: ignored
+    assert sim.body().remote_keys == {"L2", "B"}
+
+
 def test_missing_assets_name_make_setup(tmp_path) -> None:
     from g1_sim.assets import AssetsMissingError, assets_dir
 

@@ -18,23 +18,31 @@ DAMP_PARAMETER = {"data": 1}
 
 
 class SimRecord:
-    """The events of one bridge's record file, re-read on every call (the bridge appends while we read)."""
+    """The events of one bridge's record file, read up to date on every call (the bridge appends while we
+    read). Lines already read are kept, not parsed again: the record holds a ``body`` event every 10 ms of
+    sim time, and tests poll it."""
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
+        self._events: list[Event] = []
+        self._offset = 0
 
     def events(self, since: float = float("-inf")) -> list[Event]:
+        self._read_new()
+        return [e for e in self._events if e["t"] >= since]
+
+    def _read_new(self) -> None:
         if not self.path.exists():
-            return []
-        out = []
-        with self.path.open() as f:
+            return
+        with self.path.open("rb") as f:
+            if f.seek(0, 2) < self._offset:  # a new file at the same path: start over
+                self._events, self._offset = [], 0
+            f.seek(self._offset)
             for line in f:
-                if not line.endswith("\n"):
+                if not line.endswith(b"\n"):
                     break  # a line still being written
-                event = json.loads(line)
-                if event["t"] >= since:
-                    out.append(event)
-        return out
+                self._offset += len(line)
+                self._events.append(json.loads(line))
 
     def after_last_reset(self) -> list[Event]:
         events = self.events()
@@ -64,6 +72,10 @@ def velocity_of(event: Event) -> list[float] | None:
     if event.get("api") != api_ids.LOCO_SET_VELOCITY:
         return None
     return list(json.loads(event["p"])["velocity"])
+
+
+def of_kind(events: Iterable[Event], kind: str) -> list[Event]:
+    return [e for e in events if e["k"] == kind]
 
 
 def states(events: Iterable[Event]) -> list[Event]:

@@ -6,33 +6,65 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
                  "1003": [0.5, 3.0]},  # ... or after a delay drawn per request, uniform in [low, high]
      "drop": [7101],              # neither handle nor answer these api ids (the client times out: 3104)
      "error": {"7101": 3104},     # answer this code without handling the request
-     "pause_state": true,         # stop publishing rt/lowstate and rt/sportmodestate (the sim keeps running)
+     "pause_state": true,         # stop publishing every state topic (the sim keeps running)
      "damp_fails": 2,             # the next 2 SetFsmId(1) answer 3104 and do not damp
-     "seed": 7}                   # seed of the per-request delays (so a chaos scenario can be replayed)
+     "seed": 7,                   # seed of the per-request delays (so a chaos scenario can be replayed)
+     # the body, for a supervisor's checks:
+     "motor_temperature": {"3": [90, 130]},   # report motor 3 at casing 90 C, winding 130 C while set
+     "battery_soc": 15,           # report a 15 % charge while set
+     "remote_keys": ["L2", "B"],  # these keys held on the operator's remote while set
+     "push": {"force": 150, "direction": [1, 0], "duration": 0.3},  # shove the pelvis, once per setting
+     "freeze_lowstate": true}     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
 
-Every key is optional; a new configuration replaces the old one as a whole.
+Every key is optional; a new configuration replaces the old one as a whole. ``push`` acts once each time
+a configuration holding it is set (its direction: [x, y] in the world frame, or an angle in rad from +x
+towards +y; the robot boots facing +x).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import random
 import threading
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import Any, Final
 
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT
+from g1_mode_manager.protocol.motors import NUM_JOINTS
+from g1_mode_manager.protocol.remote import KEY_NAMES, UnknownKeyError, key_mask
 
 #: What a failing Damp answers (the robot's controller timing out).
 DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
-_KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed"})
+_KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed", "motor_temperature",
+                   "battery_soc", "remote_keys", "push", "freeze_lowstate"})
+#: Bounds of the injected values: what MotorState_'s int16 could carry sensibly, a push a person could give.
+TEMPERATURE_RANGE_C: Final = (-40.0, 200.0)
+PUSH_MAX_N: Final = 2000.0
+PUSH_MAX_S: Final = 5.0
 
 
 class FaultConfigError(ValueError):
     """The faults JSON is malformed; the message says what is wrong."""
+
+
+@dataclass(frozen=True)
+class Push:
+    """A horizontal force on the pelvis: N, world-frame unit direction (x, y), seconds."""
+
+    force_n: float
+    direction: tuple[float, float]
+    duration_s: float
+
+    @property
+    def force_xy(self) -> tuple[float, float]:
+        return (self.force_n * self.direction[0], self.force_n * self.direction[1])
+
+    def to_json(self) -> dict[str, Any]:
+        return {"force": self.force_n, "direction": list(self.direction), "duration": self.duration_s}
 
 
 @dataclass(frozen=True)
@@ -45,6 +77,11 @@ class FaultConfig:
     pause_state: bool = False
     damp_fails: int = 0
     seed: int = 0
+    motor_temperature: Mapping[int, tuple[float, float]] = field(default_factory=lambda: MappingProxyType({}))  # casing, winding
+    battery_soc: float | None = None
+    remote_keys: frozenset[str] = frozenset()
+    push: Push | None = None
+    freeze_lowstate: bool = False
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -54,6 +91,11 @@ class FaultConfig:
             "pause_state": self.pause_state,
             "damp_fails": self.damp_fails,
             "seed": self.seed,
+            "motor_temperature": {str(k): list(v) for k, v in self.motor_temperature.items()},
+            "battery_soc": self.battery_soc,
+            "remote_keys": sorted(self.remote_keys, key=KEY_NAMES.index),
+            "push": None if self.push is None else self.push.to_json(),
+            "freeze_lowstate": self.freeze_lowstate,
         }
 
 
@@ -129,17 +171,95 @@ def parse_faults(text: str) -> FaultConfig:
     if isinstance(seed, bool) or not isinstance(seed, int):
         raise FaultConfigError(f"seed must be an integer, got {seed!r}")
 
-    return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed)
+    freeze = raw.get("freeze_lowstate", False)
+    if not isinstance(freeze, bool):
+        raise FaultConfigError(f"freeze_lowstate must be true or false, got {freeze!r}")
+
+    return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed,
+                       motor_temperature=MappingProxyType(_motor_temperature(raw.get("motor_temperature", {}))),
+                       battery_soc=_battery_soc(raw.get("battery_soc")), remote_keys=_remote_keys(raw.get("remote_keys", [])),
+                       push=_push(raw.get("push")), freeze_lowstate=freeze)  # fmt: skip
+
+
+def _motor_temperature(raw: Any) -> dict[int, tuple[float, float]]:
+    if not isinstance(raw, dict):
+        raise FaultConfigError('motor_temperature must be an object {"motor index": [casing, winding]}')
+    out: dict[int, tuple[float, float]] = {}
+    low, high = TEMPERATURE_RANGE_C
+    for k, v in raw.items():
+        try:
+            index = int(k)
+        except (TypeError, ValueError):
+            index = -1
+        if not 0 <= index < NUM_JOINTS or str(k).strip() != str(index):
+            raise FaultConfigError(f"motor_temperature: motor index must be 0..{NUM_JOINTS - 1}, got {k!r}")
+        if not isinstance(v, list) or len(v) != 2:
+            raise FaultConfigError(f"motor_temperature[{k}]: expected [casing, winding] in deg C, got {v!r}")
+        casing, winding = (_number(t, f"motor_temperature[{k}]") for t in v)
+        if not (low <= casing <= high and low <= winding <= high):
+            raise FaultConfigError(f"motor_temperature[{k}]: deg C must be within {low:g}..{high:g}, got {v!r}")
+        out[index] = (casing, winding)
+    return out
+
+
+def _battery_soc(raw: Any) -> float | None:
+    if raw is None:
+        return None
+    soc = _number(raw, "battery_soc")
+    if not 0.0 <= soc <= 100.0:
+        raise FaultConfigError(f"battery_soc must be a percentage 0..100, got {raw!r}")
+    return soc
+
+
+def _remote_keys(raw: Any) -> frozenset[str]:
+    if not isinstance(raw, list) or not all(isinstance(k, str) for k in raw):
+        raise FaultConfigError(f"remote_keys must be a list of key names ({', '.join(KEY_NAMES)}), got {raw!r}")
+    try:
+        key_mask(raw)
+    except UnknownKeyError as e:
+        raise FaultConfigError(f"remote_keys: {e}") from None
+    return frozenset(raw)
+
+
+def _push(raw: Any) -> Push | None:
+    if raw is None:
+        return None
+    if not isinstance(raw, dict) or set(raw) != {"force", "direction", "duration"}:
+        raise FaultConfigError(f'push must be an object {{"force": N, "direction": [x, y] or rad, "duration": s}}, '
+                               f"got {raw!r}")  # fmt: skip
+    force = _number(raw["force"], "push.force")
+    if not 0.0 < force <= PUSH_MAX_N:
+        raise FaultConfigError(f"push.force must be within 0..{PUSH_MAX_N:g} N (not 0), got {raw['force']!r}")
+    duration = _number(raw["duration"], "push.duration")
+    if not 0.0 < duration <= PUSH_MAX_S:
+        raise FaultConfigError(f"push.duration must be within 0..{PUSH_MAX_S:g} s (not 0), got {raw['duration']!r}")
+    direction = raw["direction"]
+    if isinstance(direction, list):
+        if len(direction) != 2:
+            raise FaultConfigError(f"push.direction must be [x, y] or an angle in rad, got {direction!r}")
+        x, y = (_number(d, "push.direction") for d in direction)
+    else:
+        angle = _number(direction, "push.direction")
+        x, y = math.cos(angle), math.sin(angle)
+    norm = math.hypot(x, y)
+    if not norm > 1e-9 or not math.isfinite(norm):
+        raise FaultConfigError(f"push.direction must not be zero, got {direction!r}")
+    return Push(force, (x / norm, y / norm), duration)
 
 
 class Faults:
-    """The active fault configuration, shared by the RPC servers and the state publishers."""
+    """The active fault configuration, shared by the RPC servers and the state publishers.
+
+    ``on_change(old, new)`` is called after every ``set`` (the bridge hands the body's injections to the
+    robot and records them).
+    """
 
     def __init__(self, config: FaultConfig | None = None) -> None:
         self._lock = threading.Lock()
         self._config = config or FaultConfig()
         self._damp_fails_left = self._config.damp_fails
         self._rng = random.Random(self._config.seed)
+        self.on_change: Callable[[FaultConfig, FaultConfig], None] | None = None
 
     @property
     def config(self) -> FaultConfig:
@@ -148,9 +268,11 @@ class Faults:
     def set(self, config: FaultConfig) -> None:
         """Replace the configuration; the damp failure budget restarts from config.damp_fails."""
         with self._lock:
-            self._config = config
+            old, self._config = self._config, config
             self._damp_fails_left = config.damp_fails
             self._rng = random.Random(config.seed)
+        if self.on_change is not None:
+            self.on_change(old, config)
 
     def set_json(self, text: str) -> FaultConfig:
         """Parse and apply; on error raise FaultConfigError and keep the previous configuration."""
@@ -175,6 +297,10 @@ class Faults:
     @property
     def state_paused(self) -> bool:
         return self._config.pause_state
+
+    @property
+    def lowstate_frozen(self) -> bool:
+        return self._config.freeze_lowstate
 
     def take_damp_failure(self) -> bool:
         """True (and one failure used up) if this Damp must fail."""

@@ -3,9 +3,9 @@
 Serialising a unitree_hg LowState_ with cyclonedds-python and computing the SDK's CRC over it are too
 slow for 500 Hz of sim time at several times real time. Every field of LowState_ is a
 fixed-size primitive, so its CDR body is a fixed layout: we keep one template buffer, write q, dq,
-tau_est, IMU, tick and crc into it through strided numpy views, and hand the bytes to the DataWriter
-through a LowState_ whose ``serialize`` returns them. A self-check at start-up compares the result with
-cyclonedds' own deserialiser and the SDK's CRC.
+tau_est, motor temperatures, IMU, the remote's bytes, tick and crc into it through strided numpy views,
+and hand the bytes to the DataWriter through a LowState_ whose ``serialize`` returns them. A self-check at
+start-up compares the result with cyclonedds' own deserialiser and the SDK's CRC.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 from g1_mode_manager.protocol.crc import lowstate_crc
 from g1_mode_manager.protocol.idl import IMUState_, LowState_, MotorState_
 from g1_mode_manager.protocol.motors import MODE_MACHINE_G1_29DOF, NUM_JOINTS, NUM_MOTOR_SLOTS
+from g1_mode_manager.protocol.remote import REMOTE_SIZE
 
 _HEADER: Final = 4  # CDR encapsulation header
 # Offsets in the CDR body (see unitree_hg LowState_.idl; all fields at most 4-byte aligned).
@@ -26,6 +27,8 @@ _TICK: Final = 12
 _IMU: Final = 16  # quaternion[4] gyroscope[3] accelerometer[3] rpy[3] float32, then int16 temperature
 _MOTOR_Q0: Final = 72  # motor 0 q; MotorState_ is 56 bytes from one mode byte to the next
 _MOTOR_STRIDE: Final = 56
+_MOTOR_TEMPERATURE0: Final = _MOTOR_Q0 + 16  # int16[2] after q, dq, ddq, tau_est
+_WIRELESS_REMOTE: Final = 2028  # uint8[40] after the 35 motors, then reserve[4] and crc
 _CRC: Final = 2084
 _BODY_SIZE: Final = 2088
 # In the C struct the CRC covers, the IMU state is padded to 72 bytes, so motor 0's mode sits at 72
@@ -70,6 +73,11 @@ class LowStatePacker:
         self._q = _view(self._buf, body + _MOTOR_Q0, "<f4", NUM_JOINTS, _MOTOR_STRIDE)
         self._dq = _view(self._buf, body + _MOTOR_Q0 + 4, "<f4", NUM_JOINTS, _MOTOR_STRIDE)
         self._tau = _view(self._buf, body + _MOTOR_Q0 + 12, "<f4", NUM_JOINTS, _MOTOR_STRIDE)
+        self._temperature = np.ndarray((NUM_JOINTS, 2), dtype="<i2", buffer=self._buf,
+                                       offset=body + _MOTOR_TEMPERATURE0, strides=(_MOTOR_STRIDE, 2))  # fmt: skip
+        self._remote = _view(self._buf, body + _WIRELESS_REMOTE, "u1", REMOTE_SIZE, 1)
+        self._last_temperature: np.ndarray | None = None
+        self._last_remote: bytes | None = None
         self._crc = _view(self._buf, body + _CRC, "<u4", 1, 4)
         self._c_struct = np.zeros(_BODY_SIZE, dtype=np.uint8)  # C layout without the crc word
         self._msg = _default_lowstate(mode_machine)
@@ -77,8 +85,20 @@ class LowStatePacker:
         self._msg.serialize = self._serialize  # type: ignore[method-assign]
 
     def pack(self, q: np.ndarray, dq: np.ndarray, tau_est: np.ndarray, quaternion_wxyz: np.ndarray,
-             gyroscope: np.ndarray, accelerometer: np.ndarray, rpy: np.ndarray, tick: int) -> LowState_:  # fmt: skip
-        """Write one frame; returns a LowState_ to pass to the writer (its fields are NOT updated)."""
+             gyroscope: np.ndarray, accelerometer: np.ndarray, rpy: np.ndarray, tick: int,
+             temperature: np.ndarray | None = None, remote: bytes | None = None) -> LowState_:  # fmt: skip
+        """Write one frame; returns a LowState_ to pass to the writer (its fields are NOT updated).
+
+        ``temperature`` (29 x [casing, winding], int16 deg C) and ``remote`` (40 bytes of wireless_remote)
+        change far less often than the frames: they are copied only when a different object comes in,
+        and otherwise stay as last given (zero at first).
+        """
+        if temperature is not None and temperature is not self._last_temperature:
+            self._temperature[:] = temperature
+            self._last_temperature = temperature
+        if remote is not None and remote is not self._last_remote:
+            self._remote[:] = np.frombuffer(remote, dtype=np.uint8)
+            self._last_remote = remote
         self._q[:] = q
         self._dq[:] = dq
         self._tau[:] = tau_est
@@ -130,8 +150,11 @@ def self_check(packer: LowStatePacker) -> None:
     rng = np.random.default_rng(7)
     q, dq, tau = (rng.uniform(-2, 2, NUM_JOINTS).astype(np.float32) for _ in range(3))
     quat, gyro, acc, rpy = (rng.uniform(-1, 1, n).astype(np.float32) for n in (4, 3, 3, 3))
-    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 123456)
+    temperature = rng.integers(-40, 200, (NUM_JOINTS, 2)).astype(np.int16)
+    remote = rng.integers(0, 256, REMOTE_SIZE, dtype=np.uint8).tobytes()
+    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 123456, temperature, remote)
     decoded = LowState_.deserialize(packer.frame_bytes())
+    got_temperature = np.array([m.temperature for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.int16)
     got_q = np.array([m.q for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.float32)
     got_dq = np.array([m.dq for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.float32)
     got_tau = np.array([m.tau_est for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.float32)
@@ -140,8 +163,10 @@ def self_check(packer: LowStatePacker) -> None:
         np.array_equal(got_q, q) and np.array_equal(got_dq, dq) and np.array_equal(got_tau, tau)
         and np.array_equal(np.array(imu.quaternion, dtype=np.float32), quat)
         and np.array_equal(np.array(imu.rpy, dtype=np.float32), rpy)
+        and np.array_equal(got_temperature, temperature) and bytes(decoded.wireless_remote) == remote
         and decoded.tick == 123456 and decoded.mode_machine == packer.mode_machine
         and decoded.crc == lowstate_crc(decoded)
     )  # fmt: skip
     if not ok:
         raise RuntimeError("LowState_ fast packing disagrees with cyclonedds/CRC: layout changed?")
+    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 0, np.zeros((NUM_JOINTS, 2), dtype=np.int16), bytes(REMOTE_SIZE))

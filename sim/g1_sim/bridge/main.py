@@ -1,6 +1,7 @@
 """``sim_bridge``: the MuJoCo G1 behind the robot's own Unitree SDK2 DDS interface, plus a ROS 2 node.
 
-    sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--ros-args -p "faults:='{...}'"]
+    sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--gantry] [--soc PERCENT]
+               [--record FILE] [--ros-args -p "faults:='{...}'"]
 
 ROS parameter values are YAML, so a JSON faults value needs YAML quotes inside the shell's:
 ``--ros-args -p "faults:='{\"drop\": [7101]}'"``.
@@ -20,6 +21,10 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
+from g1_sim.physics.battery import START_SOC
+
 READY_LINE = "sim_bridge ready"
 EXIT_BAD_CONFIG = 2
 EXIT_FAILED = 1
@@ -37,11 +42,16 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--assets", help="simulation assets folder (default: the installed ones)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random numbers")
     p.add_argument("--record", help="append every request, frame and state change the robot saw to this JSONL file")
+    p.add_argument("--gantry", action="store_true",
+                   help="hang the pelvis from a gantry's elastic band (parameter gantry, switchable at run time)")
+    p.add_argument("--soc", type=float, default=START_SOC, help=f"battery charge at start, %% (default {START_SOC:g})")
     p.add_argument("--viewer", action="store_true",
                    help="MuJoCo's passive viewer with the head LED drawn (needs a display; headless: a warning)")
     args = p.parse_args(list(argv))
     if args.speed is not None and args.speed < 0:
         p.error("--speed must be >= 0")
+    if not 0.0 <= args.soc <= 100.0:
+        p.error("--soc must be within 0..100")
     return args
 
 
@@ -51,6 +61,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, object]:
     out: dict[str, object] = {k: v for k, v in given.items() if v is not None}
     if args.no_ros_publish:
         out["publish_ros"] = False
+    if args.gantry:
+        out["gantry"] = True
     return out
 
 
@@ -89,7 +101,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         node = BridgeNode(overrides=_overrides(args))
         try:
-            bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event, record=args.record)
+            bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event, record=args.record,
+                            soc=args.soc)  # fmt: skip
         except FaultConfigError as e:
             node.get_logger().error(f"bad faults parameter: {e}")
             return EXIT_BAD_CONFIG
@@ -132,12 +145,12 @@ class Bridge:
     """Everything but the ROS executor: the robot, its RPC services, topics and the sim thread."""
 
     def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event,
-                 record: str | None = None) -> None:  # fmt: skip
+                 record: str | None = None, soc: float = START_SOC) -> None:  # fmt: skip
         from g1_mode_manager.protocol import api_ids as api
         from g1_mode_manager.protocol.dds import init_channels
         from g1_sim.bridge.clock import Pacer, StampClock
         from g1_sim.bridge.commands import CommandIntake
-        from g1_sim.bridge.faults import Faults, parse_faults
+        from g1_sim.bridge.faults import FaultConfig, Faults, parse_faults
         from g1_sim.bridge.record import Recorder
         from g1_sim.bridge.rpc_services import (
             RequestCounter,
@@ -158,12 +171,18 @@ class Bridge:
         self.pacer = Pacer(p.speed)
         node.on_faults = self.faults.set_json
         node.on_speed = self.pacer.set_speed
+        node.on_gantry = self.set_gantry
         t0 = time.monotonic()
-        self._make_robot = lambda: SimG1(assets, seed=seed)
+        self._gantry = p.gantry  # a rig setting: a reset keeps it
+        self._make_robot = lambda: SimG1(assets, seed=seed, start_soc=soc, gantry=self._gantry)
         self.robot = RobotSlot(self._make_robot())  # every part holds the slot, so reset() can swap the robot
         log.info("robot ready in %.1f s (dt %.4f s)", time.monotonic() - t0, self.robot.dt)
         init_channels(p.dds_domain, p.network_interface, serve_multicast=True)  # found by every kind of client
         self.record = Recorder(record)
+        if self._gantry:
+            self.record.event("gantry", on=True)
+        self._faults_changed(FaultConfig(), self.faults.config)  # --faults: keys held, a push, recorded
+        self.faults.on_change = self._faults_changed
         self.requests = RequestCounter()
         hooks = {"on_received": self._received, "on_handled": self._handled} if self.record.enabled else {}
         self.servers = [
@@ -189,7 +208,8 @@ class Bridge:
         frame_hook = self._frame if self.record.enabled else None
         self.intake = CommandIntake(self.robot, on_frame=frame_hook)
         self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
-        self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock())
+        self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
+                            on_body=self._body if self.record.enabled else None)  # fmt: skip
         self._params = p
 
     def start(self) -> None:
@@ -213,6 +233,29 @@ class Bridge:
         self.record.reset()
         self._record_state()
 
+    # --- the body: injections and the gantry --------------------------------------------------------
+    def _faults_changed(self, old: Any, new: Any) -> None:
+        """Hand the body's injections to the robot (keys held, a push) and record every change."""
+        self.robot.set_remote_keys(new.remote_keys)
+        if new.push is not None:
+            self.robot.push(new.push.force_xy, new.push.duration_s)
+        self._record_injections(old, new)
+
+    def _record_injections(self, old: Any, new: Any) -> None:
+        """One ``inject`` event per fault key that changed (``on``: it differs from no fault), and per push."""
+        from g1_sim.bridge.faults import FaultConfig
+
+        before, after, none = old.to_json(), new.to_json(), FaultConfig().to_json()
+        for key, value in after.items():
+            if value != before[key] or (key == "push" and value is not None):
+                self.record.event("inject", what=key, on=value != none[key], value=value)
+
+    def set_gantry(self, on: bool) -> None:
+        """Hook the pelvis to the gantry's band (anchored above where it is now) or unhook it."""
+        self._gantry = on
+        self.robot.set_gantry(on)
+        self.record.event("gantry", on=on)
+
     # --- the robot's record ---------------------------------------------------------------------------
     def _received(self, service: str, api_id: int, parameter: str, noreply: bool, at: float | None) -> None:
         self.record.event("req", at=at, svc=service, api=api_id, p=parameter, noreply=noreply)
@@ -224,6 +267,17 @@ class Bridge:
     def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, crc: int) -> None:
         at = self.subscribers.arrival(topic, crc) if hasattr(self, "subscribers") else None
         self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max)
+
+    def _body(self, sim_time: float, s: Any, report: Any) -> None:
+        """The record's ``body`` event (every 10 ms of sim time): what a body supervisor's checks read."""
+        from g1_sim.firmware.state import tilt_rad
+
+        z = float(self.robot.base_pose().position[2])
+        self.record.event("body", st=round(sim_time, 3), tilt=round(tilt_rad(s.imu_quaternion), 4),
+                          gyro=round(float(np.abs(s.imu_gyroscope).max()), 3), dq=round(float(np.abs(s.dq).max()), 3),
+                          winding=round(report.hottest_winding_c, 2), casing=round(report.hottest_casing_c, 2),
+                          soc=round(report.battery.soc, 3), z=round(z, 4))  # fmt: skip
+        self._record_state()  # a change without a request (the remote's Damp) is recorded within 10 ms too
 
     def _record_state(self) -> None:
         robot = self.robot
@@ -254,7 +308,23 @@ class Bridge:
             "faults": self.faults.config.to_json(),
             "damp_fails_left": self.faults.damp_fails_left,
             "voice": self.voice.status(),
+            "body": self._body_status(),
         }
+
+    def _body_status(self) -> dict[str, Any]:
+        """Hottest winding and casing, soc (as the robot reports them, injections included), tilt, gantry."""
+        from g1_sim.firmware.state import tilt_rad
+
+        report = self.loop.body if hasattr(self, "loop") else None
+        pose = self.robot.base_pose()
+        out: dict[str, Any] = {"tilt": tilt_rad(pose.quaternion), "pelvis_z": float(pose.position[2]),
+                               "gantry": self.robot.gantry}  # fmt: skip
+        if report is not None:
+            b = report.battery
+            out |= {"winding_c": report.hottest_winding_c, "casing_c": report.hottest_casing_c, "soc": b.soc,
+                    "pack_v": b.pack_v, "current_a": b.current_a, "power_w": b.power_w,
+                    "remote_keys": sorted(report.remote_keys)}  # fmt: skip
+        return out
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The bridge's ROS 2 side: parameters (incl. faults at run time), /joint_states, /odom and /clock."""
+"""The bridge's ROS 2 side: parameters (faults and the gantry at run time), /joint_states, /odom and /clock."""
 
 from __future__ import annotations
 
@@ -29,14 +29,18 @@ class BridgeParams:
     speed: float
     faults: str
     publish_ros: bool
+    gantry: bool
 
 
 _DESCRIPTIONS = {
     "network_interface": "Network interface of the Unitree SDK2 DDS domain ('lo' = loopback only, no multicast).",
     "dds_domain": "Cyclone DDS domain id of the Unitree SDK2 topics and RPC services.",
     "speed": "Sim time per wall time: 1 = real time, 3 = three times faster, 0 = as fast as possible.",
-    "faults": "Faults to inject, JSON: delay_s {api: s}, drop [api], error {api: code}, pause_state, damp_fails.",
+    "faults": "Faults to inject, JSON: delay_s {api: s}, drop [api], error {api: code}, pause_state, damp_fails, "
+              "motor_temperature {motor: [casing, winding]}, battery_soc, remote_keys [key], push {force, direction, "
+              "duration}, freeze_lowstate (docs/sim.md).",
     "publish_ros": "Publish /joint_states, /odom and /clock (stamps in sim time from the start's wall time).",
+    "gantry": "Hang the pelvis from a gantry's elastic band (a limp robot hangs instead of falling).",
 }
 _READ_ONLY = frozenset({"network_interface", "dds_domain"})
 
@@ -63,13 +67,14 @@ class BridgeNode(Node):
         super().__init__(NODE_NAME, context=context,
                          parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()])  # fmt: skip
         defaults: dict[str, object] = {"network_interface": "lo", "dds_domain": 0, "speed": 1.0, "faults": "",
-                                       "publish_ros": True}  # fmt: skip
+                                       "publish_ros": True, "gantry": False}  # fmt: skip
         for name, default in defaults.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=_DESCRIPTIONS[name],
                                                                       read_only=name in _READ_ONLY))  # fmt: skip
         self.publish_ros = bool(self.get_parameter("publish_ros").value)
         self.on_faults: Callable[[str], None] | None = None
         self.on_speed: Callable[[float], None] | None = None
+        self.on_gantry: Callable[[bool], None] | None = None
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # relative: a sim launched in a namespace (one per robot) has its own; /clock stays global (ROS convention)
         self._joint_pub = self.create_publisher(JointState, "joint_states", 10)
@@ -89,6 +94,7 @@ class BridgeNode(Node):
             speed=speed,
             faults=str(g("faults").value),
             publish_ros=bool(g("publish_ros").value),
+            gantry=bool(g("gantry").value),
         )
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -99,8 +105,8 @@ class BridgeNode(Node):
                     return SetParametersResult(successful=False, reason="speed must be a number >= 0")
             elif p.name == "faults" and p.type_ != Parameter.Type.STRING:
                 return SetParametersResult(successful=False, reason="faults must be a JSON string")
-            elif p.name == "publish_ros" and p.type_ != Parameter.Type.BOOL:
-                return SetParametersResult(successful=False, reason="publish_ros must be true or false")
+            elif p.name in ("publish_ros", "gantry") and p.type_ != Parameter.Type.BOOL:
+                return SetParametersResult(successful=False, reason=f"{p.name} must be true or false")
         for p in params:
             if p.name == "faults" and self.on_faults is not None:
                 try:
@@ -111,6 +117,9 @@ class BridgeNode(Node):
                 self.get_logger().info(f"faults set: {p.value or '{}'}")
             elif p.name == "publish_ros":
                 self.publish_ros = bool(p.value)
+            elif p.name == "gantry" and self.on_gantry is not None:
+                self.on_gantry(bool(p.value))
+                self.get_logger().info(f"gantry {'on' if p.value else 'off'}")
             elif p.name == "speed" and self.on_speed is not None:
                 self.on_speed(float(p.value))
                 self.get_logger().info(f"speed set to {float(p.value)}")

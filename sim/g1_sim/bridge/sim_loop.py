@@ -1,16 +1,21 @@
 """The sim thread: step the robot one physics step at a time and publish on the robot's schedule.
 
-rt/lowstate goes out at 500 Hz of sim time, rt/sportmodestate and the ROS topics at 50 Hz, all from
-this thread right after the step they describe (lowstate packing is cheap, see lowstate_codec).
+rt/lowstate goes out at 500 Hz of sim time, rt/lf/lowstate (the same frames) at 20 Hz, rt/sportmodestate
+and the ROS topics at 50 Hz, rt/lf/bmsstate at BMSSTATE_RATE_HZ, all from this thread right after the
+step they describe (lowstate packing is cheap, see lowstate_codec). Every BODY_PERIOD_S of sim time the
+body's report (temperatures, battery, remote, with injected readings laid over: body_report) is taken
+afresh and handed to ``on_body`` (the bridge's record).
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from typing import Any, Protocol
 
-from g1_mode_manager.protocol.topics import LOWSTATE_RATE_HZ, SPORTMODESTATE_RATE_HZ
+from g1_mode_manager.protocol.topics import LF_LOWSTATE_RATE_HZ, LOWSTATE_RATE_HZ, SPORTMODESTATE_RATE_HZ
+from g1_sim.bridge.body_report import BodyReport, body_report
 from g1_sim.bridge.clock import Pacer, RateMeter, StampClock
 from g1_sim.bridge.faults import Faults
 from g1_sim.bridge.ros_face import BridgeNode
@@ -19,6 +24,11 @@ from g1_sim.bridge.streams import StatePublishers
 log = logging.getLogger(__name__)
 
 ROS_RATE_HZ = 50.0
+#: rt/lf/bmsstate: the robot's rate is not documented; a battery changes slowly, and 5 Hz lets a test see
+#: an injected soc within 0.2 s of sim time.
+BMSSTATE_RATE_HZ = 5.0
+#: The body's report (and the record's ``body`` event) is renewed this often, s of sim time.
+BODY_PERIOD_S = 0.01
 
 
 class SteppableRobot(Protocol):
@@ -30,6 +40,11 @@ class SteppableRobot(Protocol):
     def sport_state(self) -> tuple[int, int]: ...
     def arm_task(self) -> tuple[int, float]: ...
     def base_pose(self) -> Any: ...
+    def body(self) -> Any: ...
+
+
+#: ``on_body(sim_time, lowstate, report)`` every BODY_PERIOD_S (lowstate: the snapshot of that step).
+BodyHook = Callable[[float, Any, BodyReport], None]
 
 
 def _every(rate_hz: float, dt: float) -> int:
@@ -40,13 +55,15 @@ class SimLoop:
     """Runs in its own thread until ``stop()``; an exception ends the loop and is kept in ``error``."""
 
     def __init__(self, robot: SteppableRobot, publishers: StatePublishers, faults: Faults, pacer: Pacer,
-                 *, node: BridgeNode | None = None, stamps: StampClock | None = None) -> None:  # fmt: skip
+                 *, node: BridgeNode | None = None, stamps: StampClock | None = None,
+                 on_body: BodyHook | None = None) -> None:  # fmt: skip
         self._robot = robot
         self._pub = publishers
         self._faults = faults
         self._pacer = pacer
         self._node = node
         self._stamps = stamps or StampClock()
+        self._on_body = on_body
         self.rate = RateMeter()
         self.error: BaseException | None = None
         self._stop = threading.Event()
@@ -55,6 +72,12 @@ class SimLoop:
         self._low_every = _every(LOWSTATE_RATE_HZ, dt)
         self._sport_every = _every(SPORTMODESTATE_RATE_HZ, dt)
         self._ros_every = _every(ROS_RATE_HZ, dt)
+        self._lf_every = _every(LF_LOWSTATE_RATE_HZ, dt)
+        self._bms_every = _every(BMSSTATE_RATE_HZ, dt)
+        self._body_every = _every(1.0 / BODY_PERIOD_S, dt)
+        if self._lf_every % self._low_every:
+            raise ValueError("rt/lf/lowstate must fall on rt/lowstate frames")
+        self.body = body_report(robot.body(), faults.config)  # the latest report (read by the status service)
 
     def start(self) -> None:
         self._thread.start()
@@ -76,19 +99,28 @@ class SimLoop:
             log.exception("sim loop failed")
 
     def _loop(self) -> None:
-        robot, pub, faults, node = self._robot, self._pub, self._faults, self._node
+        robot, pub, faults, node, on_body = self._robot, self._pub, self._faults, self._node, self._on_body
         k = 0
         while not self._stop.is_set():
             robot.step(1)
             k += 1
             t = robot.time
             paused = faults.state_paused
+            body_due = k % self._body_every == 0
+            if body_due:
+                self.body = body_report(robot.body(), faults.config)
             s = None
-            if k % self._low_every == 0 and not paused:
+            if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
                 s = robot.lowstate()
-                pub.publish_lowstate(s)
+                pub.publish_lowstate(s, self.body, also_lf=k % self._lf_every == 0)
             if k % self._sport_every == 0 and not paused:
                 pub.publish_sportmodestate(*robot.sport_state(), *robot.arm_task())
+            if k % self._bms_every == 0 and not paused:
+                pub.publish_bmsstate(self.body)
+            if on_body is not None and body_due:
+                if s is None:
+                    s = robot.lowstate()
+                on_body(t, s, self.body)
             if node is not None and k % self._ros_every == 0 and node.publish_ros:
                 self._publish_ros(t, robot.lowstate() if s is None else s)
             self.rate.update(t)

@@ -1,4 +1,5 @@
-"""DDS topics of the simulated G1: rt/lowstate and rt/sportmodestate out, rt/lowcmd and rt/arm_sdk in."""
+"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate and rt/lf/bmsstate out,
+rt/lowcmd and rt/arm_sdk in."""
 
 from __future__ import annotations
 
@@ -10,9 +11,10 @@ from typing import Any, Protocol
 
 import numpy as np
 from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
+from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_
 
 from g1_mode_manager.protocol import topics
-from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
+from g1_mode_manager.protocol.idl import BmsState_, LowCmd_, LowState_, SportModeState_
 from g1_mode_manager.protocol.unitree_sdk_internals import (
     channel_datareader,
     channel_matched_readers,
@@ -20,13 +22,21 @@ from g1_mode_manager.protocol.unitree_sdk_internals import (
     subscriber_channel,
 )
 from g1_sim.bridge.arrivals import Arrivals, last_uint32
+from g1_sim.bridge.body_report import BodyReport
 from g1_sim.bridge.commands import CommandIntake
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
+from g1_sim.physics.battery import CELLS
 
 log = logging.getLogger(__name__)
 
 #: Reader queue length of the command topics (the SDK's reader thread drops the oldest beyond it).
 COMMAND_QUEUE_LEN = 4
+#: BmsState_ fields the sim has no model for: plausible constants (firmware version, health, cycles).
+BMS_VERSION = (1, 0)
+BMS_SOH = 100
+BMS_CYCLE = 12
+#: BmsState_.temperature entries the sim fills (deg C); the rest stay 0.
+BMS_TEMPERATURES_C = (28, 28, 27, 27)
 
 
 class LowStateLike(Protocol):
@@ -41,7 +51,8 @@ class LowStateLike(Protocol):
 
 
 class StatePublishers:
-    """Writers of rt/lowstate (packed without cyclonedds' slow serialiser) and rt/sportmodestate.
+    """Writers of rt/lowstate and rt/lf/lowstate (packed without cyclonedds' slow serialiser),
+    rt/sportmodestate and rt/lf/bmsstate.
 
     ``publish_*`` are called from the sim thread only.
     """
@@ -49,19 +60,41 @@ class StatePublishers:
     def __init__(self) -> None:
         self._lowstate = ChannelPublisher(topics.LOWSTATE, LowState_)
         self._lowstate.Init()
+        self._lf_lowstate = ChannelPublisher(topics.LF_LOWSTATE, LowState_)
+        self._lf_lowstate.Init()
         self._sport = ChannelPublisher(topics.SPORTMODESTATE, SportModeState_)
         self._sport.Init()
+        self._bms = ChannelPublisher(topics.LF_BMSSTATE, BmsState_)
+        self._bms.Init()
+        self._bms_msg = unitree_hg_msg_dds__BmsState_()
+        self._bms_msg.version_high, self._bms_msg.version_low = BMS_VERSION
+        self._bms_msg.soh, self._bms_msg.cycle = BMS_SOH, BMS_CYCLE
+        self._bms_msg.temperature[: len(BMS_TEMPERATURES_C)] = BMS_TEMPERATURES_C
         self._packer = LowStatePacker()
         self_check(self._packer)
         self._sport_msg = SportModeState_(fsm_id=0, fsm_mode=0, task_id=0, task_time=0.0)
         self._lock = threading.Lock()
         self._counts: Counter[str] = Counter()
 
-    def publish_lowstate(self, s: LowStateLike) -> None:
+    def publish_lowstate(self, s: LowStateLike, body: BodyReport, *, also_lf: bool = False) -> None:
+        """rt/lowstate, and the same frame on rt/lf/lowstate if ``also_lf`` (the robot's decimated copy)."""
         msg = self._packer.pack(s.q, s.dq, s.tau_est, s.imu_quaternion, s.imu_gyroscope, s.imu_accelerometer,
-                                s.imu_rpy, s.tick)  # fmt: skip
+                                s.imu_rpy, s.tick, body.temperature, body.remote)  # fmt: skip
         ok = self._lowstate.Write(msg)
         self._bump("lowstate" if ok else "lowstate_write_errors")
+        if also_lf:
+            ok = self._lf_lowstate.Write(msg)
+            self._bump("lf_lowstate" if ok else "lf_lowstate_write_errors")
+
+    def publish_bmsstate(self, body: BodyReport) -> None:
+        """rt/lf/bmsstate: soc %, pack voltage (mV, bmsvoltage[0]), the 13 cells (mV), current (mA)."""
+        b, m = body.battery, self._bms_msg
+        m.soc = round(b.soc)
+        m.bmsvoltage[0] = round(b.pack_v * 1000.0)
+        m.cell_vol[:CELLS] = [round(b.cell_v * 1000.0)] * CELLS
+        m.current = round(b.current_a * 1000.0)
+        ok = self._bms.Write(m)
+        self._bump("bmsstate" if ok else "bmsstate_write_errors")
 
     def publish_sportmodestate(self, fsm_id: int, fsm_mode: int, task_id: int = 0, task_time: float = 0.0) -> None:
         """``task_id``/``task_time``: the built-in arm motion playing and its seconds so far (0, 0.0: none)."""
@@ -82,7 +115,9 @@ class StatePublishers:
 
     def readers(self) -> dict[str, int]:
         """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""
-        return {"lowstate": _matched_readers(self._lowstate), "sportmodestate": _matched_readers(self._sport)}
+        writers = {"lowstate": self._lowstate, "lf_lowstate": self._lf_lowstate, "sportmodestate": self._sport,
+                   "bmsstate": self._bms}  # fmt: skip
+        return {name: _matched_readers(w) for name, w in writers.items()}
 
 
 def _matched_readers(publisher: ChannelPublisher) -> int:

@@ -7,6 +7,9 @@ controllers in :mod:`g1_sim.physics.controllers`; this module wires the two to t
 Boot: by default the robot starts *standing* in lock-stand (fsm 4) with the "ai" service selected,
 because that is what a user of the sim wants first. ``start_fsm=0``/``1`` boots limp or damping,
 ``start_service=""`` boots straight into debug mode (as some robots do).
+
+The body around the motors: temperatures and battery (firmware.body), the operator's remote (L2+B damps,
+firmware.rules), and forces from outside on the pelvis: the gantry and pushes (physics.pelvis_forces).
 """
 
 from __future__ import annotations
@@ -46,7 +49,9 @@ from g1_sim.firmware.arm_tasks import (
     SPORT_TASKS,
     ArmTaskPlayer,
 )
-from g1_sim.firmware.state import BasePose, LowStateSnapshot, quat_to_rpy
+from g1_sim.firmware.body import Body
+from g1_sim.firmware.state import BasePose, BodySnapshot, LowStateSnapshot, quat_to_rpy, tilt_rad
+from g1_sim.physics.battery import START_SOC
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
     Controller,
@@ -60,6 +65,7 @@ from g1_sim.physics.controllers import (
     ZeroTorqueController,
 )
 from g1_sim.physics.model import DEFAULT_POSE, STAND_HEIGHT_RANGE_M, G1Model, build_model, standing_qpos
+from g1_sim.physics.pelvis_forces import PelvisForces
 from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
 
 log = logging.getLogger("g1_sim.firmware")
@@ -106,7 +112,8 @@ class SimG1:
     """The simulated G1 and its firmware rules. Return values are RPC codes of ``protocol.api_ids``."""
 
     def __init__(self, assets: str | Path | None = None, *, start_fsm: int = FsmId.STAND_UP,
-                 start_service: str = "ai", seed: int = 0) -> None:
+                 start_service: str = "ai", seed: int = 0, start_soc: float = START_SOC,
+                 gantry: bool = False) -> None:
         root = assets_dir(assets).resolve()
         self._g1 = shared_model(root)
         self._data = mujoco.MjData(self._g1.model)
@@ -133,6 +140,11 @@ class SimG1:
         self._stand_up = StandUpSequence(self._g1, self._stance, float(self._g1.model.key_qpos[self._g1.stand_key][2]),
                                          kp=policy.kp * 2.0, kd=policy.kd * 2.0)
         self._ctrl: Controller = self._zero
+        self._body = Body(start_soc)
+        self._forces = PelvisForces(self._g1.pelvis_body)
+        self._forces.set_gantry(gantry, self._data)
+        self._remote: frozenset[str] = frozenset()
+        self._remote_damp_held = False
 
         self._service = ""
         self._silent = False
@@ -146,7 +158,8 @@ class SimG1:
         self._velocity_until = 0.0
         self.counters: dict[str, int] = dict.fromkeys(
             ("set_fsm_requests", "damp_requests", "refused", "invalid_fsm", "velocity_requests",
-             "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls"), 0)
+             "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls", "remote_damps",
+             "pushes"), 0)
         self._fallen = False
 
         if start_service:
@@ -200,6 +213,7 @@ class SimG1:
                 if self._arm.weight > 0.0 and self._balanced():
                     tau = self._arm.blend(tau, self._s)
                 self._data.ctrl[:] = tau
+                self._forces.apply(self._data)
                 mujoco.mj_step(self._g1.model, self._data)
                 self._steps += 1
 
@@ -221,8 +235,10 @@ class SimG1:
         return False
 
     def _tick(self) -> None:
-        """50 Hz firmware work: velocity lease, fsm_mode, fall detector."""
+        """50 Hz firmware work: velocity lease, fsm_mode, fall detector, body (temperatures, battery), remote."""
         t = self.time
+        self._body.update(self._data.actuator_force[:NUM_JOINTS], self._s.dq, self._decimation * self.dt)
+        self._remote_tick()
         self._tasks.update(t)
         if self._velocity_until and t >= self._velocity_until:
             self._velocity[:] = 0.0
@@ -235,12 +251,49 @@ class SimG1:
             self._fsm, moving_command=bool(np.any(self._velocity != 0.0)),
             speed_mps=float(np.hypot(*pose.linear_velocity[:2])), yaw_rate=float(pose.angular_velocity[2]),
             transition_running=self._transition_running()))
-        up_z = 1.0 - 2.0 * (self._data.qpos[4] ** 2 + self._data.qpos[5] ** 2)  # body z-axis . world z
-        fallen = self._data.qpos[2] < FALL_HEIGHT_M and np.arccos(np.clip(up_z, -1, 1)) > FALL_TILT_RAD
+        fallen = self._data.qpos[2] < FALL_HEIGHT_M and tilt_rad(self._data.qpos[3:7]) > FALL_TILT_RAD
         if fallen and not self._fallen:
             self.counters["falls"] += 1
             log.info("t=%.2f fall detected in fsm %d", t, self._fsm)
         self._fallen = bool(fallen)
+
+    def _remote_tick(self) -> None:
+        """L2+B pressed (both held, not held together before) damps while a service is active."""
+        held = rules.remote_requests_damp(self._remote)
+        if held and not self._remote_damp_held and self._service:
+            self.counters["remote_damps"] += 1
+            if self._fsm != FsmId.DAMP:
+                self._enter(int(FsmId.DAMP))
+            log.info("t=%.2f remote L2+B: damp", self.time)
+        self._remote_damp_held = held
+
+    # --- the body: remote, gantry, pushes --------------------------------------------------------
+
+    def set_remote_keys(self, keys: frozenset[str]) -> None:
+        """The keys held on the operator's remote from now on (the firmware looks at 50 Hz)."""
+        with self._lock:
+            self._remote = frozenset(keys)
+
+    def set_gantry(self, on: bool) -> None:
+        """Hang the pelvis from the gantry's band (anchored above where it is now), or unhook it."""
+        with self._lock:
+            self._forces.set_gantry(on, self._data)
+
+    @property
+    def gantry(self) -> bool:
+        with self._lock:
+            return self._forces.gantry
+
+    def push(self, force_xy: tuple[float, float], duration_s: float) -> None:
+        """Push the pelvis horizontally (N, world frame) for ``duration_s`` of sim time from now."""
+        with self._lock:
+            self.counters["pushes"] += 1
+            self._forces.push(force_xy, duration_s, self.time)
+
+    def body(self) -> BodySnapshot:
+        """Motor temperatures, battery and the remote's keys as the firmware has them now."""
+        with self._lock:
+            return self._body.snapshot(self._remote)
 
     # --- sport service ---------------------------------------------------------------------------
 

@@ -68,3 +68,14 @@ def is_dynamic(current: int, *, moving_command: bool, speed_mps: float, yaw_rate
 #: Above these the robot counts as moving even with a zero command (it is still stopping).
 DYNAMIC_SPEED_MPS: Final = 0.2
 DYNAMIC_YAW_RATE: Final = 0.3
+
+
+#: Held together on the operator's remote while a high-level service is active, they make the built-in
+#: controller Damp. Unitree's Go2 guide gives L2+B for damping and G1 users report the same on the G1's
+#: remote; not verified from a Unitree G1 document. In debug mode the controller ignores the remote.
+REMOTE_DAMP_KEYS: Final = frozenset({"L2", "B"})
+
+
+def remote_requests_damp(held: frozenset[str]) -> bool:
+    """The keys held on the remote make the damping combination."""
+    return held >= REMOTE_DAMP_KEYS

@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from g1_sim.physics.battery import BatteryReading
+
 
 @dataclass(frozen=True)
 class LowStateSnapshot:
@@ -39,3 +41,20 @@ def quat_to_rpy(q: np.ndarray) -> np.ndarray:
     pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
     yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
     return np.array([roll, pitch, yaw])
+
+
+@dataclass(frozen=True)
+class BodySnapshot:
+    """What the robot's body reports besides joints and IMU: motor temperatures, battery, the remote."""
+
+    casing_c: np.ndarray  # 29, deg C
+    winding_c: np.ndarray  # 29, deg C
+    battery: BatteryReading
+    remote_keys: frozenset[str]  # keys held on the operator's remote
+
+
+def tilt_rad(q_wxyz: np.ndarray) -> float:
+    """Angle between the body's z axis and vertical, as Unitree's terminations.hpp computes it from the IMU
+    quaternion (acos of minus the z of gravity in the body frame)."""
+    _, x, y, _ = q_wxyz
+    return float(np.arccos(np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0)))
