@@ -3,17 +3,14 @@ combination e-stops once per press, the dead-man follows its key, an idle HIGH_L
 
 from __future__ import annotations
 
-import math
-
-from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowState_
-
 from fakes.fake_robot_port import FakeRobotPort
+from fakes.lowstate_bytes import lowstate_bytes
 from fakes.machine_rig import Rig
 from g1_mode_manager.core.body.monitor import BodyMonitor
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
-from g1_mode_manager.protocol.remote import RemoteState, encode_remote, key_mask
+from g1_mode_manager.protocol.remote import key_mask
 from g1_mode_manager.relay.body_watch import BodyWatch
 from g1_mode_manager.relay.events import RelayEvents
 
@@ -21,13 +18,7 @@ L2_B = key_mask(("L2", "B"))
 R2 = key_mask(("R2",))
 
 
-def state(*, tilt: float = 0.0, keys: tuple[str, ...] = (), winding: int = 40) -> bytes:
-    msg = unitree_hg_msg_dds__LowState_()
-    msg.imu_state.quaternion = [math.cos(tilt / 2), 0.0, math.sin(tilt / 2), 0.0]
-    for motor in msg.motor_state:
-        motor.temperature = [35, winding]
-    msg.wireless_remote = list(encode_remote(RemoteState(frozenset(keys))))
-    return msg.serialize()
+state = lowstate_bytes
 
 
 class Clock:

@@ -7,15 +7,15 @@ import pytest
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from g1_mode_manager_msgs.msg import Mode
+from node.test_node_plumbing import Harness
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
-from body.test_body_watch import state
 from fakes.fake_robot_port import FakeRobotPort
+from fakes.lowstate_bytes import lowstate_bytes as state
 from g1_mode_manager.core.port import SportState
 from g1_mode_manager.node.mode_manager import ModeManagerNode
 from g1_mode_manager.topic_qos import MODE_QOS
-from node.test_node_plumbing import Harness
 from support.mode_manager import wait_until
 
 WALKING = SportState(fsm_id=500, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
