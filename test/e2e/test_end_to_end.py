@@ -203,12 +203,12 @@ def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(stack_factor
 
 
 def test_lowcmd_moves_a_joint_in_low_level_only(stack_factory) -> None:
-    stack = stack_factory()
+    stack = stack_factory(bridge_args=("--gantry",))  # hung, as people do for low-level work
     q = _joint_reader(stack)
     low = stack.ros.node.create_publisher(JointCommand, "/g1_mode_manager/lowcmd", 10)
     assert wait_until(lambda: low.get_subscription_count() > 0 and q("left_elbow_joint") is not None, 10.0)
     assert stack.set_mode("low_level").success
-    time.sleep(1.0)  # limp robot settles on the floor
+    time.sleep(1.0)  # the limp robot settles in the gantry
     end = time.monotonic() + 2.0
     while time.monotonic() < end:
         low.publish(JointCommand(name=["left_elbow_joint"], q=[1.2], dq=[0.0], tau=[0.0], kp=[40.0], kd=[1.0]))

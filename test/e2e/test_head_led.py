@@ -31,7 +31,7 @@ def _collect(stack, t0: float, seconds: float) -> set[tuple[int, int, int]]:
 
 
 def test_each_mode_shows_its_colour_and_pattern_on_the_robot(stack_factory) -> None:
-    stack = stack_factory(node_params=("announce_modes:=true",))
+    stack = stack_factory(node_params=("announce_modes:=true",), bridge_args=("--gantry",))  # LOW_LEVEL: hung
     assert stack.sim.get()["voice"]["led"] == list(OFF)  # nothing sent before the robot is connected
 
     assert stack.set_mode("idle").success

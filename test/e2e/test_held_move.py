@@ -63,6 +63,7 @@ def _walk_with_held_replies(stack, stop: threading.Event, *, start: bool) -> thr
 def test_set_mode_and_estop_are_not_held_by_unacknowledged_moves(stack_factory) -> None:
     stack = stack_factory()
     stop = threading.Event()
+    driver: threading.Thread | None = None
     try:
         # a mode change while a Move's reply is held
         driver = _walk_with_held_replies(stack, stop, start=True)
@@ -95,6 +96,8 @@ def test_set_mode_and_estop_are_not_held_by_unacknowledged_moves(stack_factory) 
         assert _unanswered_moves(stack, damps[1]["t"]) > 0, "no Move was unanswered at the verified Damp"
     finally:
         stop.set()
+        if driver is not None:
+            driver.join(5.0)  # before the fixture destroys the publisher it drives with
     print(f"Move replies held {HELD_S} s: set_mode idle {idle_s * 1000:.0f} ms (node), {t_idle * 1000:.0f} ms "
           f"(client); e-stop {estop_s * 1000:.0f} ms (node), {t_estop * 1000:.0f} ms (client); verified Damp "
           f"{verified_after_s * 1000:.1f} ms after the DampNoReply (robot's record)")

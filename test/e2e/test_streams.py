@@ -40,8 +40,8 @@ MOVE_STEP = 1.5 * 0.05 + 1e-6  # max_ax 1.5 m/s^2 over the 20 Hz tick: the large
 def recorded(stack_factory) -> Callable[..., tuple[Stack, SimRecord]]:
     """factory(*node_params) -> (stack, the sim's record)."""
 
-    def factory(*params: str) -> tuple[Stack, SimRecord]:
-        stack = stack_factory(node_params=params)
+    def factory(*params: str, gantry: bool = False) -> tuple[Stack, SimRecord]:
+        stack = stack_factory(node_params=params, bridge_args=("--gantry",) if gantry else ())
         return stack, stack.record
 
     return factory
@@ -155,9 +155,12 @@ def _weight_jumps(frames: list[dict]) -> list[tuple[float, float]]:
 
 
 def test_arm_weight_ramps_only_while_the_robot_stands_and_starts_from_zero(recorded) -> None:
-    stack, record = recorded()
+    # The body checks would end this in FAULT, rightly: damped, the robot falls onto its back, and lock stand
+    # (fsm 4) from there is a fall (tilt 1.9 rad); hung, the sim's stand-up spins the pelvis at ~15 rad/s.
+    # What is judged here is the arm relay, so they are off.
+    stack, record = recorded("body_checks_enabled:=false")
     assert stack.set_mode("high_level").success
-    assert stack.loco("damp").success  # the robot sinks, damped: it ignores arm_sdk
+    assert stack.loco("damp").success  # the robot sags, damped: it ignores arm_sdk
     publish = _arm_publisher(stack)
     with publishing(publish, 20.0):
         time.sleep(3.0)  # longer than the 2 s ramp

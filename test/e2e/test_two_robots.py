@@ -54,8 +54,8 @@ def two_robots(sdk_channels: int, tmp_path):
     try:
         for ns, domain in (("/g1_a", sdk_channels), ("/g1_b", allocate_sdk_domain())):
             path = tmp_path / f"{ns.strip('/')}.jsonl"
-            bridge = start_sim_bridge(domain, speed=1.0, extra_args=(
-                "--record", str(path), "--no-ros-publish", "--ros-args", "-r", f"__ns:={ns}"))  # fmt: skip
+            bridge = start_sim_bridge(domain, speed=1.0, extra_args=(  # hung: one of them goes to LOW_LEVEL
+                "--record", str(path), "--no-ros-publish", "--gantry", "--ros-args", "-r", f"__ns:={ns}"))  # fmt: skip
             procs.append(bridge)
             robots.append(Robot(ns, domain, SimRecord(path), bridge, ros))
         for robot in robots:
