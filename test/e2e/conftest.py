@@ -79,6 +79,32 @@ class Stack:
                           SetParameters.Request(parameters=[Parameter(name="faults", value=value)]))
         assert r.results[0].successful, r.results[0].reason
 
+    def set_gantry(self, on: bool) -> None:
+        """Hang the robot in the sim's gantry, or unhook it (the bridge's `gantry` parameter)."""
+        from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+        from rcl_interfaces.srv import SetParameters
+
+        value = ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=on)
+        r = self.ros.call(SetParameters, "/g1_sim_bridge/set_parameters",
+                          SetParameters.Request(parameters=[Parameter(name="gantry", value=value)]))
+        assert r.results[0].successful, r.results[0].reason
+
+    def modes(self) -> list:
+        """Every ~/mode message since the first call (a subscription of the test's client)."""
+        if not hasattr(self, "_modes"):
+            from g1_mode_manager_msgs.msg import Mode
+
+            from g1_mode_manager.topic_qos import MODE_QOS
+
+            self._modes: list = []
+            self.ros.node.create_subscription(Mode, self.name("mode"), self._modes.append, MODE_QOS)
+        return self._modes
+
+    def clear_fault(self):
+        from std_srvs.srv import Trigger
+
+        return self.ros.call(Trigger, self.name("clear_fault"), Trigger.Request())
+
     def horizontal_speed(self) -> float:
         v = self.sim.get()["base"]["linear_velocity"]
         return math.hypot(v[0], v[1])

@@ -1,0 +1,278 @@
+"""The body checks judged by the robot: each condition made true in the sim (a push, a heated motor, a
+frozen state stream, a spinning joint, the gantry let go, a key held on the remote) and the robot's
+reaction read from the sim's record, with its latency.
+
+LOW_LEVEL runs with a controller streaming the standing pose at 500 Hz, the robot hung in the sim's
+gantry as people hang a G1 for low-level work. "Damping frames" are rt/lowcmd frames with no stiffness
+(kp 0) on the record; the condition's time is the sim's own (its `body` events every 10 ms of sim time,
+or the injection's).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+from g1_mode_manager_msgs.msg import JointCommand
+from g1_mode_manager_msgs.msg import Mode as ModeMsg
+
+from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.protocol.motors import JOINT_NAMES
+from g1_sim.physics.model import DEFAULT_POSE
+from support.mode_manager import wait_until
+from support.sim_record import damped, is_damp, of_kind, requests, states, velocity_of
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+#: From the condition becoming true on the robot to the first damping frame it received, in LOW_LEVEL.
+LOW_LEVEL_BOUND_S = 0.05
+#: From a walking robot's tilt passing the limit to the node's Damp on the robot's record, in HIGH_LEVEL.
+HIGH_LEVEL_BOUND_S = 0.5
+LEGS_KP, ARMS_KP, KD = 80.0, 40.0, 2.0
+
+
+def _stand_command(**changes: tuple[float, float]) -> JointCommand:
+    """The standing pose for all 29 joints; ``changes``: joint -> (q, kp)."""
+    q = [float(v) for v in DEFAULT_POSE]
+    kp = [LEGS_KP if i < 15 else ARMS_KP for i in range(len(JOINT_NAMES))]
+    for name, (target, stiffness) in changes.items():
+        i = JOINT_NAMES.index(name)
+        q[i], kp[i] = target, stiffness
+    n = len(JOINT_NAMES)
+    return JointCommand(name=list(JOINT_NAMES), q=q, dq=[0.0] * n, tau=[0.0] * n, kp=kp, kd=[KD] * n)
+
+
+class Controller:
+    """A user's joint controller: ``~/lowcmd`` at 500 Hz from a thread of its own."""
+
+    def __init__(self, stack, rate_hz: float = 500.0) -> None:
+        self._pub = stack.ros.node.create_publisher(JointCommand, stack.name("lowcmd"), 10)
+        assert wait_until(lambda: self._pub.get_subscription_count() > 0, 10.0)
+        self.msg = _stand_command()
+        self._period = 1.0 / rate_hz
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            self._pub.publish(self.msg)
+            next_t += self._period
+            self._stop.wait(max(0.0, next_t - time.monotonic()))
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join(5.0)
+
+
+def _low_level_with_controller(stack, controller: Controller, command: JointCommand | None = None) -> float:
+    """LOW_LEVEL entered, the controller's frames (``command``, default the standing pose) reaching the
+    robot; returns when they did."""
+    controller.msg = command or _stand_command()
+    reply = stack.set_mode("low_level")
+    assert reply.success, reply.message
+    t = time.monotonic()
+    assert wait_until(lambda: len(_user_frames(stack, t)) > 50, 5.0), \
+        ("the controller's frames never reached the robot", [(m.name, list(m.faults)) for m in stack.modes()[-2:]])
+    return time.monotonic()
+
+
+def _user_frames(stack, since: float) -> list[dict]:
+    """The controller's frames the robot received (and applied) since ``since``."""
+    return [e for e in stack.record.events(since) if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0
+            and e["ok"]]
+
+
+def _first_damping_frame(stack, since: float) -> float:
+    """When the first damping frame since ``since`` reached the robot (waits for it). Received, not
+    necessarily applied: a frame that arrives just before the e-stop path's SelectMode is judged by the sim
+    after it (another thread) and counted "not_debug_mode"; the robot is then the service's to damp."""
+
+    def frames() -> list[dict]:
+        return [e for e in stack.record.events(since) if e["k"] == "frame" and e["topic"] == "lowcmd"
+                and e["kp_max"] == 0]
+
+    assert wait_until(lambda: bool(frames()), 3.0), "no damping frame reached the robot"
+    return frames()[0]["t"]
+
+
+def _first_body(stack, since: float, field: str, above: float, timeout_s: float = 5.0) -> float:
+    """When the sim's body first showed ``field`` above ``above`` (waits for it)."""
+
+    def found() -> list[dict]:
+        return [e for e in of_kind(stack.record.events(since), "body") if e[field] > above]
+
+    assert wait_until(lambda: bool(found()), timeout_s), f"the sim never showed {field} above {above}"
+    return found()[0]["t"]
+
+
+def _injected(stack, what: str, since: float) -> float:
+    found = [e for e in of_kind(stack.record.events(since), "inject") if e["what"] == what and e["on"]]
+    assert found, f"no {what} injection on the record"
+    return found[0]["t"]
+
+
+def _fault_seen(stack, *checks: str) -> ModeMsg:
+    """The newest ~/mode FAULT with the robot seen damped; one of ``checks`` among its faults."""
+    assert wait_until(lambda: stack.modes()[-1].mode == ModeMsg.FAULT and stack.modes()[-1].damp_confirmed, 10.0), \
+        [(m.name, list(m.faults)) for m in stack.modes()[-3:]]
+    fault = stack.modes()[-1]
+    assert any(f.split(":")[0] in checks for f in fault.faults), list(fault.faults)
+    return fault
+
+
+def _damped_on_the_robot(stack, since: float) -> None:
+    assert wait_until(lambda: any(damped(s) for s in states(stack.record.events(since))), 10.0)
+    sport = stack.sim.get()["sport"]
+    assert sport["fsm_id"] == 1 and sport["mode"] == "ai", sport
+
+
+def _clear_to_idle(stack) -> None:
+    stack.set_faults({})
+    assert wait_until(lambda: stack.clear_fault().success, 10.0)
+    assert stack.modes() and wait_until(lambda: stack.modes()[-1].mode == ModeMsg.IDLE, 5.0)
+
+
+def _latency(name: str, t_condition: float, t_reaction: float, bound: float) -> None:
+    print(f"{name}: reaction {1000 * (t_reaction - t_condition):.1f} ms after the condition (bound {1000 * bound:.0f} ms)")
+    assert t_reaction - t_condition <= bound, f"{name}: {t_reaction - t_condition:.3f} s"
+
+
+def test_a_walking_robot_pushed_over_is_damped_within_half_a_second(stack_factory) -> None:
+    stack = stack_factory()
+    stack.modes()
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    driving = threading.Event()
+    driver = threading.Thread(target=lambda: [stack.drive(0.3, 0.2) for _ in iter(driving.is_set, True)], daemon=True)
+    driver.start()
+    try:
+        assert wait_until(lambda: any(any(velocity_of(e) or []) for e in requests(stack.record.events(),
+                                                                                 api_ids.LOCO_SET_VELOCITY)), 10.0)
+        t_small = time.monotonic()
+        stack.set_faults({"push": {"force": 150, "direction": [1, 0], "duration": 0.2}})  # it walks on
+        time.sleep(2.0)
+        assert [m.name for m in stack.modes() if m.mode != ModeMsg.HIGH_LEVEL and m.mode != ModeMsg.UNINITIALIZED] == []
+        assert all(e["tilt"] < 1.0 for e in of_kind(stack.record.events(t_small), "body"))
+        t0 = time.monotonic()
+        stack.set_faults({"push": {"force": 600, "direction": [1, 0], "duration": 0.3}})
+        fault = _fault_seen(stack, "tilt", "spin")
+    finally:
+        driving.set()
+        driver.join(5.0)
+    t_tilt = _first_body(stack, t0, "tilt", 1.0)
+    t_damp = next(e["t"] for e in requests(stack.record.events(t0)) if is_damp(e))
+    _latency("pushed over in HIGH_LEVEL: the node's Damp", t_tilt, t_damp, HIGH_LEVEL_BOUND_S)
+    moves = [e for e in requests(stack.record.events(t_damp), api_ids.LOCO_SET_VELOCITY) if any(velocity_of(e) or [])]
+    assert moves == [], moves[:3]
+    _damped_on_the_robot(stack, t0)
+    print(f"~/mode: {fault.name}, faults {list(fault.faults)}")
+
+
+def test_low_level_checks_damp_a_streaming_controller_within_50_ms(stack_factory) -> None:
+    stack = stack_factory(node_params=("fault_clear_hold_s:=0.5",), bridge_args=("--gantry",))
+    stack.modes()
+    controller = Controller(stack)
+    try:
+        # a motor overheats: injected, so the condition's time is exact
+        t0 = _low_level_with_controller(stack, controller)
+        stack.set_faults({"motor_temperature": {"3": [70, 130]}})
+        t_hot = _injected(stack, "motor_temperature", t0)
+        t_damping = _first_damping_frame(stack, t0)
+        _latency("winding overheat in LOW_LEVEL: damping frames", t_hot, t_damping, LOW_LEVEL_BOUND_S)
+        assert _user_frames(stack, t_damping) == [], "a user frame reached the robot after the damping began"
+        _fault_seen(stack, "winding_overheat", "winding_critical")
+        _damped_on_the_robot(stack, t0)
+        refused = stack.clear_fault()
+        assert not refused.success and "still active" in refused.message, refused.message
+        _clear_to_idle(stack)
+        assert damped(states(stack.record.events(t0))[-1]), "clear_fault moved the robot"
+
+        # the state stream freezes: the condition is 1 s without rt/lowstate
+        t0 = _low_level_with_controller(stack, controller)
+        stack.set_faults({"freeze_lowstate": True})
+        t_lost = _injected(stack, "freeze_lowstate", t0) + 1.0
+        assert wait_until(lambda: time.monotonic() > t_lost + 0.2, 5.0)
+        frames = [e["t"] for e in stack.record.events(t_lost) if e["k"] == "frame" and e["topic"] == "lowcmd"
+                  and e["kp_max"] == 0]
+        assert frames, "no damping frame after the state stream was lost"
+        _latency("state lost in LOW_LEVEL: damping frames", t_lost, frames[0], LOW_LEVEL_BOUND_S)
+        assert _user_frames(stack, t_lost) == []
+        _fault_seen(stack, "state_lost")
+        _damped_on_the_robot(stack, t0)
+        _clear_to_idle(stack)
+
+        # a joint spins: the controller steps a wrist far and hard
+        t0 = _low_level_with_controller(stack, controller)
+        controller.msg = _stand_command(left_wrist_roll_joint=(1.5, 500.0))
+        t_fast = _first_body(stack, t0, "dq", 10.0)
+        _latency("joint speed in LOW_LEVEL: damping frames", t_fast, _first_damping_frame(stack, t0), LOW_LEVEL_BOUND_S)
+        _fault_seen(stack, "joint_speed", "spin")
+        _damped_on_the_robot(stack, t0)
+        _clear_to_idle(stack)
+
+        # the gantry lets go: the robot, held stiff by its controller, topples over (the wrist held where the
+        # last phase left it: snapped back at once, it would spin past the limit again)
+        t0 = _low_level_with_controller(stack, controller, _stand_command(left_wrist_roll_joint=(1.5, ARMS_KP)))
+        stack.set_gantry(False)
+        assert wait_until(lambda: any(m.mode == ModeMsg.FAULT for m in stack.modes()), 10.0)
+        t_fall = min(_first_body(stack, t0, "tilt", 1.0), _first_body(stack, t0, "gyro", 6.0))
+        _latency("a fall in LOW_LEVEL: damping frames", t_fall, _first_damping_frame(stack, t0), LOW_LEVEL_BOUND_S)
+        _fault_seen(stack, "tilt", "spin", "joint_speed")
+        _damped_on_the_robot(stack, t0)
+
+        # an e-stop still overrides FAULT
+        reply = stack.estop()
+        assert reply.success, reply.message
+        assert wait_until(lambda: stack.modes()[-1].mode == ModeMsg.EMERGENCY, 5.0)
+    finally:
+        controller.stop()
+
+
+@pytest.mark.parametrize("mode", ["idle", "high_level", "low_level"])
+def test_the_remote_combination_stops_the_robot(stack_factory, mode: str) -> None:
+    stack = stack_factory(bridge_args=("--gantry",) if mode == "low_level" else ())
+    stack.modes()
+    controller = Controller(stack) if mode == "low_level" else None
+    try:
+        if controller is not None:
+            t0 = _low_level_with_controller(stack, controller)
+        else:
+            assert stack.set_mode(mode).success
+            t0 = time.monotonic()
+        stack.set_faults({"remote_keys": ["L2", "B"]})
+        t_keys = _injected(stack, "remote_keys", t0)
+        assert wait_until(lambda: any(m.mode == ModeMsg.EMERGENCY and m.damp_confirmed for m in stack.modes()), 10.0)
+        node_damps = [e for e in requests(stack.record.events(t_keys)) if is_damp(e)]
+        assert node_damps, "the node sent no Damp"
+        if controller is not None:  # nothing else on the robot listens to the remote in LOW_LEVEL
+            _latency("remote L2+B in LOW_LEVEL: damping frames", t_keys, _first_damping_frame(stack, t_keys), 0.1)
+            assert _user_frames(stack, t_keys + 0.1) == []
+        print(f"remote L2+B in {mode}: the node's first Damp {1000 * (node_damps[0]['t'] - t_keys):.1f} ms after")
+        _damped_on_the_robot(stack, t0)
+    finally:
+        if controller is not None:
+            controller.stop()
+
+
+def test_the_deadman_passes_user_frames_only_while_its_key_is_held(stack_factory) -> None:
+    stack = stack_factory(node_params=("lowcmd_deadman_key:=R2",), bridge_args=("--gantry",))
+    controller = Controller(stack, rate_hz=200.0)
+    try:
+        assert stack.set_mode("low_level").success
+        t0 = time.monotonic()
+        time.sleep(0.5)
+        assert _user_frames(stack, t0) == [] and _first_damping_frame(stack, t0)
+        stack.set_faults({"remote_keys": ["R2"]})
+        t_held = _injected(stack, "remote_keys", t0)
+        assert wait_until(lambda: len(_user_frames(stack, t_held)) > 20, 3.0)
+        stack.set_faults({})
+        t_released = max(e["t"] for e in of_kind(stack.record.events(t0), "inject") if e["what"] == "remote_keys")
+        time.sleep(0.6)
+        late = _user_frames(stack, t_released + 0.25)
+        assert late == [], f"{len(late)} user frames after the key was released"
+        assert _first_damping_frame(stack, t_released + 0.25)
+    finally:
+        controller.stop()
