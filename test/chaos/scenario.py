@@ -1,4 +1,5 @@
-"""One chaos scenario: random robot faults, random operator traffic, an e-stop at a random instant.
+"""One chaos scenario: random robot faults, random operator traffic, random body faults (pushes, overheated
+motors, a drained battery, the remote's L2+B, a frozen state stream), an e-stop at a random instant.
 
 Everything random comes from the scenario's seed, so a failure is replayed with `make chaos SEED=<seed> N=1`.
 The judge reads only the robot's side: the sim's record (requests and frames with receive times, state
@@ -21,8 +22,15 @@ DELAYED_APIS = (api_ids.MS_CHECK_MODE, api_ids.MS_SELECT_MODE, api_ids.MS_RELEAS
 MAX_DELAY_S = 3.0
 MODES = ("idle", "high_level", "low_level")
 LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand")
-#: Operator actions, with their weights: mode requests, loco commands, /cmd_vel, arm and joint streams.
-KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd")
+#: Operator actions, with their weights: mode requests, loco commands, /cmd_vel, arm and joint streams, a body
+#: fault made true in the sim, an operator's clear_fault.
+KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear")
+BODY_FAULTS = ("push", "overheat", "battery", "remote", "freeze")
+#: How long a transient body fault (a held key, a frozen stream) lasts, s.
+TRANSIENT_S = (0.3, 1.5)
+#: After a FAULT was claimed, the robot must be seen damped within this (the e-stop's budget, its calls'
+#: injected delays), s.
+FAULT_DAMPED_S = 12.0
 #: The node's stream limits (defaults of config/mode_manager.yaml), for the judge.
 ARM_STEP = 1.0 / (2.0 * 50.0)  # arm_ramp_time_s 2 s at 50 Hz: the most the weight may change per frame
 MOVE_STEP = (1.5 * 0.05, 1.0 * 0.05, 3.0 * 0.05)  # max_ax, max_ay, max_awz times one 20 Hz tick
@@ -33,10 +41,29 @@ GRACE_S = 0.06  # a frame in flight, plus one rt/sportmodestate period, after a 
 class Plan:
     seed: int
     faults: dict[str, Any]
-    actions: list[tuple[float, int, str, str]]  # (at s, client, "mode" | "loco" | "drive", argument)
+    actions: list[tuple[float, int, str, Any]]  # (at s, client, kind, argument)
     estop_at: float
     estop_via: str  # "service", "topic_reliable", "topic_best_effort"
     damp_fails: int
+    gantry: bool = False  # the robot hangs in the sim's gantry (then a limp LOW_LEVEL robot does not fall)
+
+
+def _body_fault(rng: random.Random) -> dict[str, Any]:
+    """One body fault as the sim's faults keys, with how long it lasts (None: to the scenario's end)."""
+    kind = rng.choice(BODY_FAULTS)
+    lasts = round(rng.uniform(*TRANSIENT_S), 3)
+    if kind == "push":
+        push = {"force": round(rng.uniform(50, 700)), "direction": round(rng.uniform(-3.14, 3.14), 3),
+                "duration": round(rng.uniform(0.1, 0.4), 3)}  # fmt: skip
+        return {"set": {"push": push}, "lasts": None}
+    if kind == "overheat":
+        motor, hot = str(rng.randrange(29)), rng.choice([(60, 125), (90, 60), (70, 140), (100, 60)])
+        return {"set": {"motor_temperature": {motor: list(hot)}}, "lasts": None}
+    if kind == "battery":
+        return {"set": {"battery_soc": round(rng.uniform(3, 19), 1)}, "lasts": None}
+    if kind == "remote":
+        return {"set": {"remote_keys": ["L2", "B"]}, "lasts": lasts}
+    return {"set": {"freeze_lowstate": True}, "lasts": lasts}
 
 
 def plan(seed: int) -> Plan:
@@ -48,16 +75,28 @@ def plan(seed: int) -> Plan:
             delays[str(api)] = [0.0, round(high, 3)]
     damp_fails = rng.choice([0, 0, 0, 1, 2])
     faults: dict[str, Any] = {"delay_s": delays, "seed": seed, "damp_fails": damp_fails}
-    actions = []
+    actions: list[tuple[float, int, str, Any]] = []
     t = 0.0
+    if rng.random() < 0.6:  # connect at once, so that later faults and the e-stop meet a connected node
+        t = 0.05
+        actions.append((t, 0, "mode", rng.choice(MODES)))
     for _ in range(rng.randint(2, 6)):
         t += rng.uniform(0.05, 0.6)
         kind = rng.choice(KINDS)
-        arg = rng.choice(MODES) if kind == "mode" else rng.choice(LOCO) if kind == "loco" else ""
+        arg: Any = ""
+        if kind == "mode":
+            arg = rng.choice(MODES)
+        elif kind == "loco":
+            arg = rng.choice(LOCO)
+        elif kind == "body":  # after the node's first connect (~1.5 s): before it, no check acts
+            arg = _body_fault(rng)
+            t = max(t, rng.uniform(1.8, 2.6))
         actions.append((t, rng.randint(0, 1), kind, arg))
-    estop_at = rng.uniform(0.1, t + 0.8)
+    body_at = [at for at, _, kind, _ in actions if kind == "body"]
+    after_body = bool(body_at) and rng.random() < 0.7  # mostly after a body fault, so that its reaction is seen
+    estop_at = rng.uniform(body_at[-1] + 0.3, t + 2.5) if after_body else rng.uniform(0.1, t + 1.5)
     via = rng.choice(["service", "service", "topic_reliable", "topic_best_effort"])
-    return Plan(seed, faults, actions, estop_at, via, damp_fails)
+    return Plan(seed, faults, actions, estop_at, via, damp_fails, gantry=rng.random() < 0.5)
 
 
 @dataclass
@@ -117,6 +156,62 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
                 bad.append(f"~/mode claimed damped at {t:.3f} while the robot was {at}")
                 break
     bad += _judge_streams(events, history, modes)
+    bad += _judge_faults(events, history, modes)
+    return bad
+
+
+def _forwarded_motion(e: Event, *, arms: bool = True) -> str:
+    """What motion (not damping) this record event forwarded to the robot, or ''. ``arms``: an arm_sdk weight
+    above zero counts (not while a hold ramps the arms out)."""
+    if arms and e["k"] == "frame" and e["topic"] == "arm_sdk" and e["w"] > 0:
+        return f"arm_sdk weight {e['w']}"
+    if e["k"] == "req" and any(velocity_of(e) or []):
+        return f"Move {velocity_of(e)}"
+    if e["k"] == "req" and fsm_of(e) not in (None, 1):
+        return f"SetFsmId {fsm_of(e)}"
+    if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0:
+        return f"user lowcmd (kp {e['kp_max']})"
+    return ""
+
+
+def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[float, Any]]) -> list[str]:
+    """FAULT (a body check's protective stop) and holds, on the robot's record: FAULT is left only to IDLE or
+    EMERGENCY; from the moment it was claimed nothing but damping reaches the robot until it is left, and the
+    robot is seen damped within FAULT_DAMPED_S; while a hold is claimed no Move and no user lowcmd reach it."""
+    bad: list[str] = []
+    fault_mode, idle, emergency = 5, 1, 4
+    episodes: list[tuple[float, float]] = []  # (claimed, left) of each FAULT and hold period
+    holds: list[tuple[float, float]] = []
+    start = held = None
+    for (t, m), nxt in zip(modes, [*modes[1:], (float("inf"), None)], strict=True):
+        if m.mode == fault_mode and start is None:
+            start = t
+        if start is not None and nxt[1] is not None and nxt[1].mode != fault_mode:
+            if nxt[1].mode not in (idle, emergency):
+                bad.append(f"FAULT left to {nxt[1].name}")
+            episodes.append((start, nxt[0]))
+            start = None
+        if m.holds and held is None:
+            held = t
+        if held is not None and (nxt[1] is None or not nxt[1].holds):
+            holds.append((held, nxt[0]))
+            held = None
+    if start is not None:
+        episodes.append((start, float("inf")))
+    for t_fault, t_left in episodes:
+        late = [(e["t"] - t_fault, what) for e in events
+                if t_fault + GRACE_S < e["t"] < t_left and (what := _forwarded_motion(e))]
+        if late:
+            bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s into FAULT")
+        end = events[-1]["t"] if events else t_fault
+        if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in history
+                                                       if t_fault <= s["t"] <= t_fault + FAULT_DAMPED_S):
+            bad.append(f"robot not damped within {FAULT_DAMPED_S} s of FAULT")
+    for t_held, t_released in holds:
+        late = [what for e in events if t_held + GRACE_S < e["t"] < t_released
+                and (what := _forwarded_motion(e, arms=False)) and not what.startswith("SetFsmId")]
+        if late:
+            bad.append(f"{late[0]} reached the robot while a body check held motion")
     return bad
 
 
@@ -183,6 +278,12 @@ def run_actions(stack: Any, p: Plan, t0: float, stop: threading.Event) -> None:
                     stack.drive(0.3, 0.5, rate_hz=50.0)
                 elif kind == "arm":
                     _stream(stack, "arm_cmd", _arm_msg(), 0.6, 50.0)
+                elif kind == "body":
+                    stack.set_faults({**p.faults, **arg["set"]})
+                    if arg["lasts"] is not None and not stop.wait(arg["lasts"]):
+                        stack.set_faults(p.faults)
+                elif kind == "clear":
+                    stack.clear_fault()
                 else:
                     _stream(stack, "lowcmd", _lowcmd_msg(), 0.5, 100.0)
             except TimeoutError:

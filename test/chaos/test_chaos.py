@@ -3,7 +3,9 @@
 One bridge serves the whole batch (reset to its boot state between scenarios); every scenario starts a
 fresh node (EMERGENCY is latched), injects random per-request delays on CheckMode / SelectMode /
 ReleaseMode / SetFsmId (0-3 s, so in-flight calls land in every order), failing Damps, random mode
-requests, loco commands and /cmd_vel from two clients, and an e-stop at a random instant through the
+requests, loco commands and /cmd_vel from two clients, body faults made true in the sim (pushes,
+overheated motors, a drained battery, L2+B on the remote, a frozen state stream; the robot hung in the
+gantry or not, per scenario) and clear_fault calls, and an e-stop at a random instant through the
 service or the topic (reliable or best effort). See scenario.judge for the invariants.
 
 CI runs a fixed-seed batch (G1_CHAOS_N, default 40) in G1_CHAOS_PARTS parts (default 2: seeds split in
@@ -100,6 +102,7 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
     failures: list[str] = []
     latencies: list[float] = []
     unclean: list[str] = []  # nodes that did not exit 0 on SIGINT (not a safety violation; reported)
+    body = {"body faults injected": 0, "FAULT entered": 0, "holds": 0, "hung in the gantry": 0}
     started = time.monotonic()
     with ThreadPoolExecutor(1) as starter:
         upcoming = starter.submit(_start_node, 0)
@@ -109,7 +112,7 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
                 if i + 1 < count:
                     upcoming = starter.submit(_start_node, i + 1)
                 seed = first_seed + i
-                bad = _scenario(seed, Stack(bridge, node, ros, sim, record, ns), endpoints[ns], latencies, unclean)
+                bad = _scenario(seed, Stack(bridge, node, ros, sim, record, ns), endpoints[ns], latencies, unclean, body)
                 if bad:
                     failures.append(f"seed {seed}: " + "; ".join(bad))
                     print(f"chaos: VIOLATION seed {seed}: {bad}", flush=True)
@@ -126,6 +129,7 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
         median = latencies[len(latencies) // 2] * 1000
         print(f"chaos: e-stop request -> first Damp received by the robot (node connected): median {median:.2f} ms, "
               f"max {latencies[-1] * 1000:.2f} ms (n={len(latencies)})")
+    print("chaos: scenarios with " + ", ".join(f"{what} {n}" for what, n in body.items()))
     print(f"chaos: {(time.monotonic() - started) / max(count, 1):.1f} s per scenario; nodes that did not exit cleanly on "
           f"SIGINT: {len(unclean)} {unclean}")
     line = f"chaos: {count} scenarios, {len(failures)} violations"
@@ -135,8 +139,11 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
     assert not failures, "\n".join(failures)
 
 
-def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], unclean: list[str]) -> list[str]:
+def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], unclean: list[str],
+              body: dict[str, int]) -> list[str]:  # fmt: skip
     p = plan(seed)
+    body["body faults injected"] += any(kind == "body" for _, _, kind, _ in p.actions)
+    body["hung in the gantry"] += p.gantry
     ros, sim, node = stack.ros, stack.sim, stack.node
     claims = ends.claims = Claims()
     estop_client = ends.estop_client
@@ -147,6 +154,7 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], 
         assert estop_client.wait_for_service(timeout_sec=10.0)
         assert estop_pub is None or wait_until(lambda: estop_pub.get_subscription_count() >= 1, 10.0)
         stack.set_faults(p.faults)
+        stack.set_gantry(p.gantry)
         stop = threading.Event()
         t0 = time.monotonic()
         actions = threading.Thread(target=run_actions, args=(stack, p, t0, stop), daemon=True)
@@ -170,6 +178,8 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], 
                            and e.get("api") == 7101 and e.get("p") == '{"data": 1}'), None)
         with claims.lock:
             before = [m for t, m in claims.modes if t < claims.t_estop]
+            body["FAULT entered"] += any(m.mode == Mode.FAULT for _, m in claims.modes)
+            body["holds"] += any(m.holds for _, m in claims.modes)
         connected = bool(before) and before[-1].mode != Mode.UNINITIALIZED
         if first_damp is not None and connected:  # from UNINITIALIZED the e-stop first connects (~1.5 s)
             latencies.append(first_damp - claims.t_estop)
