@@ -74,9 +74,11 @@ class Stats:
 class Sim:
     """A sim bridge with its record, and what the bench reads from it."""
 
-    def __init__(self, faults: dict | None = None) -> None:
+    def __init__(self, faults: dict | None = None, *, gantry: bool = False) -> None:
+        """``gantry``: the robot hangs in the sim's gantry, so a limp LOW_LEVEL robot does not fall (and fault)."""
         self.path = Path(tempfile.mkdtemp(prefix="g1_bench_")) / "record.jsonl"
-        self.proc = start_sim_bridge(SDK_DOMAIN, speed=1.0, faults=faults, extra_args=["--record", str(self.path)])
+        self.proc = start_sim_bridge(SDK_DOMAIN, speed=1.0, faults=faults,
+                                     extra_args=["--record", str(self.path), *(["--gantry"] if gantry else [])])
         self._events: list[dict] = []
         self._offset = 0
         shared_sim_status().wait_ready(15.0)
@@ -476,12 +478,32 @@ def cpu_rows(bench: Bench, seconds: float) -> list[tuple[str, float]]:
     return rows
 
 
+def cpu_only(seconds: float) -> int:
+    """The CPU rows alone, printed as the full run prints them."""
+    from g1_mode_manager.protocol.dds import init_channels
+
+    init_channels(SDK_DOMAIN, "lo")
+    ros = RosClient("bench")
+    sim = Sim(gantry=True)
+    try:
+        for name, value in cpu_rows(Bench(ros), seconds):
+            print(f"{name:<60} {value:5.1f} % of one core", flush=True)
+    finally:
+        ros.close()
+        sim.stop()
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=100,
                         help="e-stop samples (each starts a node); the flood and SelectMode cases take 1/20 (>= 5)")
     parser.add_argument("--cpu-seconds", type=float, default=10.0, help="length of each CPU measurement")
+    parser.add_argument("--cpu-only", action="store_true",
+                        help="only the node's CPU rows (idle HIGH_LEVEL with the body checks on, the streams)")
     args = parser.parse_args(argv)
+    if args.cpu_only:
+        return cpu_only(args.cpu_seconds)
     from g1_mode_manager.protocol.dds import init_channels
 
     init_channels(SDK_DOMAIN, "lo")
@@ -522,7 +544,7 @@ def main(argv: list[str] | None = None) -> int:
             stop_node(bench, node)
         sim.stop()
 
-        sim = Sim(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
+        sim = Sim(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}}, gantry=True)
         robot, reply, _ = estop_latency(bench, sim, few, "select")
         rows += [("~/estop during a SelectMode held 2 s -> Damp received", robot.text()),
                  ("~/estop during a SelectMode held 2 s -> reply (after re-select)", reply.text())]
@@ -545,7 +567,7 @@ def main(argv: list[str] | None = None) -> int:
             stop_node(bench, node)
         sim.stop()
 
-        sim = Sim()
+        sim = Sim(gantry=True)
         for name, value in cpu_rows(bench, args.cpu_seconds):
             rows.append((name, f"{value:5.1f} % of one core"))
             if name == "node CPU, HIGH_LEVEL walking, no commands":
