@@ -74,7 +74,7 @@ class Settings:
     # --- the robot's body: checks (thresholds from core/body/checks.py), FAULT, the remote ---
     body_checks_enabled: bool = True
     body_check_rate_hz: float = 100.0
-    body_check_slow_rate_hz: float = 20.0
+    body_check_slow_rate_hz: float = 10.0
     tilt_limit_rad: float = BODY_CHECKS["tilt"].threshold
     spin_limit_rad_s: float = BODY_CHECKS["spin"].threshold
     joint_speed_limit_rad_s: float = BODY_CHECKS["joint_speed"].threshold
