@@ -55,12 +55,8 @@ def decode_body_fields_slowly(data: bytes) -> BodyFields:
     """The same by full deserialisation: any encoding cyclonedds reads."""
     msg = LowState_.deserialize(data)
     motors = msg.motor_state[:NUM_JOINTS]
+    casing, winding = zip(*((int(m.temperature[0]), int(m.temperature[1])) for m in motors), strict=True)
     imu = msg.imu_state
-    return BodyFields(
-        quaternion=tuple(float(v) for v in imu.quaternion),  # type: ignore[arg-type]
-        gyroscope=tuple(float(v) for v in imu.gyroscope),  # type: ignore[arg-type]
-        dq=tuple(float(m.dq) for m in motors),
-        casing_c=tuple(int(m.temperature[0]) for m in motors),
-        winding_c=tuple(int(m.temperature[1]) for m in motors),
-        remote=bytes(int(b) & 0xFF for b in msg.wireless_remote),
-    )
+    return BodyFields(tuple(map(float, imu.quaternion)), tuple(map(float, imu.gyroscope)),  # type: ignore[arg-type]
+                      tuple(float(m.dq) for m in motors), casing, winding,
+                      bytes(int(b) & 0xFF for b in msg.wireless_remote))  # fmt: skip
