@@ -169,7 +169,9 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], 
         actions.join(40.0)
         stop.set()
         stack.set_faults({})
-        wait_until(lambda: _damped(sim.get()), SETTLE_S, 0.1)
+        # the robot damped, and by the node's e-stop: the remote's L2+B damps it by itself (the built-in
+        # controller), while an e-stop from UNINITIALIZED first connects (~1.5 s)
+        wait_until(lambda: _damped(sim.get()) and _damp_since(stack.record, claims.t_estop), SETTLE_S, 0.1)
         time.sleep(0.3)
         end_state = sim.get()
         alive = node.alive()
@@ -195,6 +197,10 @@ def _scenario(seed: int, stack: Stack, ends: Endpoints, latencies: list[float], 
         if code not in (0, None) or stop_s > 5.0:
             unclean.append(f"seed {seed}: exit {code} after {stop_s:.1f} s")
             print(f"chaos seed {seed}: node exited with {code} after {stop_s:.1f} s:\n{node.output()[-3000:]}")
+
+
+def _damp_since(record: SimRecord, t: float) -> bool:
+    return any(e["k"] == "req" and e.get("api") == 7101 and e.get("p") == '{"data": 1}' for e in record.events(t))
 
 
 def _damped(status: dict) -> bool:
