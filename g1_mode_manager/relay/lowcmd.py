@@ -46,6 +46,7 @@ class LowCmdRelay:
         self._exit_damping_s = exit_damping_s
         self._clock = clock
         self._damp_until = 0.0
+        self._released_at_stop = False  # a stop left LOW_LEVEL: damp until the service is known active
         self._lock = threading.Lock()
 
     def submit(self, names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau: Sequence[float],
@@ -85,6 +86,7 @@ class LowCmdRelay:
         if target is not Mode.HIGH_LEVEL:  # no SelectMode is under way or none has been seen to work yet
             with self._lock:
                 self._damp_until = self._clock() + self._exit_damping_s
+                self._released_at_stop = target in (Mode.EMERGENCY, Mode.FAULT)
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
 
     def busy(self) -> bool:
@@ -96,12 +98,22 @@ class LowCmdRelay:
         return self._gate.mode is Mode.LOW_LEVEL and self._gate.holding_motion()
 
     def _exit_damping_due(self) -> bool:
+        """Damping after leaving LOW_LEVEL: for exit_damping_s, and after a stop from LOW_LEVEL until the
+        high-level service is known active (never after a stop from any other mode: the service holds the
+        robot there, and a lowcmd frame would compete with it)."""
         mode = self._gate.mode
         with self._lock:
             due = self._clock() < self._damp_until
+            released = self._released_at_stop
         if mode is Mode.IDLE:
             return due
-        return mode in (Mode.EMERGENCY, Mode.FAULT) and (due or not self._service_active())
+        if mode not in (Mode.EMERGENCY, Mode.FAULT) or not released:
+            return False
+        if due or not self._service_active():
+            return True
+        with self._lock:
+            self._released_at_stop = False  # the service answered: its Damp holds the robot from now on
+        return False
 
     def tick(self, _dt_s: float) -> None:
         if self._gate.allows_low_level_commands():

@@ -98,6 +98,19 @@ def test_a_stop_from_low_level_damps_at_once_and_until_the_service_is_active(eve
     assert len(_frames(port)) == 2 + EXIT_BURST
 
 
+@pytest.mark.parametrize("source", [Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL], ids=lambda m: m.name)
+def test_a_stop_from_any_other_mode_writes_no_lowcmd(events, clock, source: Mode) -> None:
+    """The high-level service holds the robot there (or will): a lowcmd frame would compete with it."""
+    port = FakeRobotPort()
+    gate = Gate(source)
+    relay = _relay(port, gate, events, clock)  # the service is not (yet) known active
+    gate.add_leave_listener(relay.on_leave)
+    gate.leave(Mode.EMERGENCY)
+    assert not relay.busy()
+    relay.tick(0.02)
+    assert _frames(port) == []
+
+
 def test_a_hold_in_low_level_replaces_the_user_stream_with_damping(events, clock) -> None:
     port = FakeRobotPort()
     gate = Gate(Mode.LOW_LEVEL)
