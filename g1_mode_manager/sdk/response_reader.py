@@ -160,5 +160,9 @@ class ResponseReader:
             pending.done.set()
 
     def close(self) -> None:
+        """No more calls into Python from Cyclone's receive thread: a reply that arrives while the process
+        exits (a late answer to a call that timed out) would otherwise call a listener after the
+        interpreter is gone (a SIGSEGV at exit). The listener object itself stays alive (_NEVER_FREED)."""
+        self._reader.set_listener(None)  # Cyclone waits for a callback that is running
         with self._lock:
             self._pending.clear()

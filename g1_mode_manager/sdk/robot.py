@@ -256,12 +256,15 @@ class UnitreeRobot:
         return self._lowstate_mode_machine()
 
     def close(self) -> None:
-        """Stop readers and writers; later calls raise RobotError. (The SDK's RPC clients have no close.)"""
+        """Stop readers, writers and the RPC clients' reply readers; later calls raise RobotError."""
         with self._connect_lock:
             if self._closed:
                 return
             self._closed = True
-            for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._arm, self._lowcmd):
+            with self._voice_lock:
+                voice = self._voice
+            for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._arm, self._lowcmd,
+                         self._loco, self._switcher, voice):  # fmt: skip
                 if part is not None:
                     try:
                         part.close()

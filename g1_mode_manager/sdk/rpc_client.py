@@ -59,6 +59,10 @@ class RpcClient(Client):
         self._id_lock = threading.Lock()
         self._last_id = 0
 
+    def close(self) -> None:
+        """Stop taking replies (the SDK's client has no close of its own); later calls time out."""
+        self._replies.close()
+
     def _next_id(self) -> int:
         """Request ids as the SDK makes them (monotonic ns), but never equal across threads."""
         with self._id_lock:
