@@ -152,3 +152,12 @@ def test_turn_off_at_shutdown_only_if_something_is_lit(events, clock) -> None:
     rig.run(0.2)
     rig.led.turn_off()
     assert rig.voice.leds[-1] == OFF
+
+
+def test_fault_flashes_orange_every_half_second(events, clock) -> None:
+    """The rover reference's FAULT look: orange, flashing with a 500 ms period."""
+    rig = Rig(events, clock)
+    rig.mode = Mode.FAULT
+    rig.run(1.0, rate_hz=20.0)
+    assert set(rig.voice.leds) == {(255, 80, 0), OFF}
+    assert LOOKS[Mode.FAULT] == "255 80 0 flash 0.5"
