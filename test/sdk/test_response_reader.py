@@ -34,3 +34,28 @@ def test_decoding_equals_cyclonedds_deserialisation(request_id: int, api_id: int
 def test_malformed_replies_raise_value_error(raw: bytes) -> None:
     with pytest.raises(ValueError):
         decode(raw)
+
+
+def test_a_closed_client_takes_no_reply_into_python(sdk_channels: int) -> None:
+    """Closing stops Cyclone calling the reply listener: a late reply that arrives while the process exits
+    must find no Python to call (it crashed nodes at exit)."""
+    from unitree_sdk2py.core.channel import ChannelPublisher
+
+    from g1_mode_manager.sdk.loco_client import LocoClient
+    from support.mode_manager import wait_until
+
+    client = LocoClient(1.0)
+    replies = client._replies  # the reader under test
+    server = ChannelPublisher("rt/api/sport/response", Response_)
+    server.Init()
+
+    def answer(request_id: int) -> None:
+        server.Write(Response_(ResponseHeader_(RequestIdentity_(request_id, 7001), ResponseStatus_(0)), "{}", []))
+
+    before = replies.expect(1)
+    assert wait_until(lambda: (answer(1) or True) and before.done.is_set(), 5.0), "no reply taken before close"
+    client.close()
+    after = replies.expect(2)
+    for _ in range(20):
+        answer(2)
+    assert not after.done.wait(0.5), "a reply was taken after close"
