@@ -14,3 +14,11 @@ LF_BMSSTATE: Final = "rt/lf/bmsstate"
 LOWSTATE_RATE_HZ: Final = 500.0
 SPORTMODESTATE_RATE_HZ: Final = 50.0
 LF_LOWSTATE_RATE_HZ: Final = 20.0
+
+#: The robot's state estimate (unitree_go SportModeState_, protocol.odom_fields), high-level mode only, recent
+#: firmware; and the torso IMU (unitree_hg IMUState_), which Unitree's C++ ankle example reads.
+ODOMMODESTATE: Final = "rt/odommodestate"
+LF_ODOMMODESTATE: Final = "rt/lf/odommodestate"
+SECONDARY_IMU: Final = "rt/secondary_imu"
+ODOMMODESTATE_RATE_HZ: Final = 500.0
+LF_ODOMMODESTATE_RATE_HZ: Final = 20.0

@@ -1,0 +1,60 @@
+"""rt/odommodestate and rt/lf/odommodestate: the robot's state estimate, unitree_go SportModeState_.
+
+The G1 publishes its estimator's odometry in the Go2's message type (not unitree_hg's SportModeState_ of
+rt/sportmodestate), in high-level mode only and on recent firmware. Every field is fixed-size, so one
+struct reads and writes the whole CDR body: the sim packs it at 500 Hz and the node unpacks it, neither
+through cyclonedds' per-field serialiser. Other encodings fall back to that serialiser.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+from typing import Final
+
+from unitree_sdk2py.idl.unitree_go.msg.dds_ import SportModeState_ as OdomModeState_
+
+__all__ = ["OdomFields", "OdomModeState_", "decode_odom", "encode_odom"]
+
+# stamp (sec, nanosec), error_code, imu (quaternion w,x,y,z, gyroscope, accelerometer, rpy, temperature), mode,
+# progress, gait_type, foot_raise_height, position[3], body_height, velocity[3], yaw_speed, range_obstacle[4],
+# foot_force[4], foot_position_body[12], foot_speed_body[12], path_point[10] (7 floats each).
+_BODY: Final = struct.Struct("<iII4f3f3f3fBB2xfB3xf3ff3ff4f4h12f12f70f")
+_HEADER: Final = b"\x00\x01\x00\x00"  # CDR, little endian
+_LITTLE_ENDIAN_ENCODINGS: Final = (0x01, 0x07)
+_TAIL: Final = (0.0,) * 4 + (0,) * 4 + (0.0,) * (12 + 12 + 70)
+
+
+@dataclass(frozen=True)
+class OdomFields:
+    """Position m and velocity m/s in the odometry frame, yaw_speed rad/s; quaternion (w, x, y, z) of the
+    body in that frame; stamp s (the robot's clock)."""
+
+    stamp_s: float
+    position: tuple[float, float, float]
+    velocity: tuple[float, float, float]
+    yaw_speed: float
+    quaternion: tuple[float, float, float, float]
+    gyroscope: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    body_height: float
+
+
+def encode_odom(f: OdomFields) -> bytes:
+    """The serialised message (header included), the rest of its fields zero."""
+    sec = int(f.stamp_s)
+    return _HEADER + _BODY.pack(sec, int((f.stamp_s - sec) * 1e9), 0, *f.quaternion, *f.gyroscope, 0.0, 0.0, 0.0,
+                                *f.rpy, 0, 0, 0.0, 0, 0.0, *f.position, f.body_height, *f.velocity, f.yaw_speed,
+                                *_TAIL)  # fmt: skip
+
+
+def decode_odom(data: bytes) -> OdomFields:
+    if len(data) >= 4 + _BODY.size and data[1] in _LITTLE_ENDIAN_ENCODINGS:
+        v = _BODY.unpack_from(data, 4)
+        return OdomFields(stamp_s=v[0] + v[1] * 1e-9, quaternion=v[3:7], gyroscope=v[7:10], rpy=v[13:16],
+                          position=v[21:24], body_height=v[24], velocity=v[25:28], yaw_speed=v[28])  # fmt: skip
+    m = OdomModeState_.deserialize(data)
+    imu = m.imu_state
+    return OdomFields(stamp_s=m.stamp.sec + m.stamp.nanosec * 1e-9, position=tuple(m.position),
+                      velocity=tuple(m.velocity), yaw_speed=m.yaw_speed, quaternion=tuple(imu.quaternion),
+                      gyroscope=tuple(imu.gyroscope), rpy=tuple(imu.rpy), body_height=m.body_height)  # type: ignore[arg-type]
