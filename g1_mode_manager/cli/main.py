@@ -72,7 +72,8 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         return 0 if r.success else 1
     if args.cmd == "loco":
         r = client.loco(args.command, args.value)
-        print(f"success={r.success} code={r.code}: {r.message}")
+        outcome = f" outcome after {r.outcome_s:.2f} s" if r.outcome_s >= 0.0 else ""
+        print(f"success={r.success} code={r.code}{outcome}: {r.message}")
         return 0 if r.success else 1
     from g1_mode_manager.cli.keyboard import run_keyboard
 

@@ -1,7 +1,10 @@
-"""The verbs of ~/loco_command: each one's name, what it does on the robot port and which values it takes.
+"""The verbs of ~/loco_command: each one's name, what it does on the robot port, which values it takes and
+what the robot must show afterwards for the command to count as done.
 
 The one table of them: the service's rules (relay/loco_command.py) look verbs up here, and the numbers
 sent are the protocol's constants (FsmId, BalanceMode, ARM_TASK_*), the same the SDK's LocoClient sends.
+A return code of 0 is not an outcome (firmware 1.5.3 answers 0 to Start and does nothing from some
+states), so every verb names the state it is judged by (relay/loco_outcome.py reads it).
 """
 
 from __future__ import annotations
@@ -19,40 +22,94 @@ FLAG: Final = range(2)
 
 
 @dataclass(frozen=True)
+class FsmShown:
+    """rt/sportmodestate shows ``fsm_id`` with fsm_mode 0 (the switch finished). ``motion``: the verb starts a
+    posture motion of seconds (stand up, squat, sit), judged against the longer motion timeout."""
+
+    fsm_id: int
+    motion: bool = False
+
+
+@dataclass(frozen=True)
+class BalanceShown:
+    """GetBalanceMode answers ``mode``."""
+
+    mode: int
+
+
+@dataclass(frozen=True)
+class StandHeightShown:
+    """GetStandHeight moved up (``highest``) or down from its value before the command, or already sits at the
+    extreme a verified command of the same verb left it at (the robot's range is not documented)."""
+
+    highest: bool
+
+
+@dataclass(frozen=True)
+class TaskShown:
+    """rt/sportmodestate shows ``task_id`` playing with a task_time that began after the command was sent."""
+
+    task_id: int
+
+
+@dataclass(frozen=True)
+class NotReadable:
+    """The robot has no way to be asked: the command is answered on its return code, and says so."""
+
+    why: str
+
+
+Expected = FsmShown | BalanceShown | StandHeightShown | TaskShown | NotReadable
+
+
+@dataclass(frozen=True)
 class LocoVerb:
-    """``send(port, value)`` makes the verb's robot call; ``values`` is None for a verb that ignores its value."""
+    """``send(port, value)`` makes the verb's robot call; ``expect(value)`` is what the robot must show after
+    it; ``values`` is None for a verb that ignores its value."""
 
     send: Callable[[RobotPort, int], None]
+    expect: Callable[[int], Expected]
     values: range | None = None
 
 
-def _fsm(fsm_id: FsmId) -> LocoVerb:
-    return LocoVerb(lambda port, _value: port.set_fsm_id(int(fsm_id)))
+def _fsm(fsm_id: FsmId, *, motion: bool = False) -> LocoVerb:
+    return LocoVerb(lambda port, _value: port.set_fsm_id(int(fsm_id)), lambda _value: FsmShown(int(fsm_id), motion))
+
+
+def _balance_mode(continuous: int) -> int:
+    return int(BalanceMode.CONTINUOUS_GAIT if continuous else BalanceMode.BALANCE_STAND)
 
 
 def _balance(port: RobotPort, continuous: int) -> None:
-    port.set_balance_mode(int(BalanceMode.CONTINUOUS_GAIT if continuous else BalanceMode.BALANCE_STAND))
+    port.set_balance_mode(_balance_mode(continuous))
 
 
 def _arm_task(task_id: int) -> LocoVerb:
-    return LocoVerb(lambda port, _value: port.set_arm_task(task_id))
+    return LocoVerb(lambda port, _value: port.set_arm_task(task_id), lambda _value: TaskShown(task_id))
+
+
+def _shake_hand_task(stage: int) -> int:
+    return api.ARM_TASK_SHAKE_HAND_STAGES[stage]
 
 
 LOCO_VERBS: Final[Mapping[str, LocoVerb]] = {
     "damp": _fsm(FsmId.DAMP),
     "zero_torque": _fsm(FsmId.ZERO_TORQUE),
-    "squat": _fsm(FsmId.SQUAT),
-    "sit": _fsm(FsmId.SIT),
-    "stand_up": _fsm(FsmId.STAND_UP),
+    "squat": _fsm(FsmId.SQUAT, motion=True),
+    "sit": _fsm(FsmId.SIT, motion=True),
+    "stand_up": _fsm(FsmId.STAND_UP, motion=True),
     "start": _fsm(FsmId.START),
-    "balance_stand": LocoVerb(lambda port, _value: _balance(port, 0)),
-    "continuous_gait": LocoVerb(_balance, FLAG),
-    "speed_mode": LocoVerb(lambda port, value: port.set_speed_mode(value), range(len(SPEED_MODE_MAX_SPEED))),
-    "high_stand": LocoVerb(lambda port, _value: port.high_stand()),
-    "low_stand": LocoVerb(lambda port, _value: port.low_stand()),
+    "balance_stand": LocoVerb(lambda port, _value: _balance(port, 0), lambda _value: BalanceShown(_balance_mode(0))),
+    "continuous_gait": LocoVerb(_balance, lambda value: BalanceShown(_balance_mode(value)), FLAG),
+    "speed_mode": LocoVerb(lambda port, value: port.set_speed_mode(value),
+                           lambda _value: NotReadable("the robot has no getter for its speed mode"),
+                           range(len(SPEED_MODE_MAX_SPEED))),
+    "high_stand": LocoVerb(lambda port, _value: port.high_stand(), lambda _value: StandHeightShown(highest=True)),
+    "low_stand": LocoVerb(lambda port, _value: port.low_stand(), lambda _value: StandHeightShown(highest=False)),
     "wave_hand": _arm_task(api.ARM_TASK_WAVE),
     "wave_and_turn": _arm_task(api.ARM_TASK_WAVE_AND_TURN),
     # value 0: hold the hand out, 1: withdraw it
-    "shake_hand": LocoVerb(lambda port, stage: port.set_arm_task(api.ARM_TASK_SHAKE_HAND_STAGES[stage]),
+    "shake_hand": LocoVerb(lambda port, stage: port.set_arm_task(_shake_hand_task(stage)),
+                           lambda stage: TaskShown(_shake_hand_task(stage)),
                            range(len(api.ARM_TASK_SHAKE_HAND_STAGES))),
 }

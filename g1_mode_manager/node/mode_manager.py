@@ -34,7 +34,7 @@ from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.link_health import LinkHealth
-from g1_mode_manager.relay.loco_command import run_loco_command
+from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
@@ -88,7 +88,8 @@ class ModeManagerNode(Node):
         # set_mode may block for seconds (SelectMode on a robot): served on a side node with a thread pool
         # of its own, so the command streams keep their cheap single-threaded executor, and a busy
         # transition refuses further requests at once instead of queueing them.
-        self._service_side = SideNode(self, "services", MultiThreadedExecutor(num_threads=4, context=self.context))
+        # loco commands hold a thread while they wait for the robot to show their outcome (seconds at most)
+        self._service_side = SideNode(self, "services", MultiThreadedExecutor(num_threads=6, context=self.context))
         services = ReentrantCallbackGroup()
         self._service_side.node.create_service(SetMode, self._service_side.name_under_main("set_mode"), self._on_set_mode,
                                            callback_group=services)
@@ -108,7 +109,10 @@ class ModeManagerNode(Node):
                                    silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
                                    service_active=lambda: self.machine.status().service_active,
                                    deadman=self._body.watch.deadman_held)
-        for relay in (self._lowcmd, self._arm, self._cmd_vel):  # lowcmd first: its damping frames are the urgent ones
+        self._loco = LocoCommands(self._port, self.machine, outcome_timeout_s=s.loco_outcome_timeout_s,
+                                  motion_timeout_s=s.loco_motion_timeout_s)
+        # lowcmd first: its damping frames are the urgent ones; loco last: it only wakes waiting answers
+        for relay in (self._lowcmd, self._arm, self._cmd_vel, self._loco):
             self.machine.add_leave_listener(relay.on_leave)
         # --- cmd_vel relative (a namespace gives each robot its own), Twist or TwistStamped ---
         # The command streams are taken by a thread of their own from a wait set of just them (see
@@ -225,13 +229,14 @@ class ModeManagerNode(Node):
         return response
 
     def _on_loco_command(self, request: LocoCommand.Request, response: LocoCommand.Response) -> LocoCommand.Response:
-        result = run_loco_command(self._port, self.machine, request.command, request.value)
+        result = self._loco.run(request.command, request.value)
         if result.success:
             self.get_logger().info(f"loco_command: {result.message}")
         else:
-            self._events.count("loco_command_refused")
-            self.get_logger().warn(f"loco_command {request.command!r} refused: {result.message}")
+            self._events.count("loco_command_refused" if result.code == -1 else "loco_command_failed")
+            self.get_logger().warn(f"loco_command {request.command!r}: {result.message}")
         response.success, response.message, response.code = result.success, result.message, result.code
+        response.outcome_s = result.outcome_s
         return response
 
     # --- command streams -------------------------------------------------------------------------

@@ -34,6 +34,7 @@ class Settings:
     cmd_vel_rate_hz: float = 10.0
     cmd_vel_max_rate_hz: float = 50.0
     move_duration_s: float = 1.0
+    not_walking_after_s: float = 2.0
     max_vx: float = 0.8
     max_vy: float = 0.4
     max_wz: float = 1.0
@@ -51,6 +52,12 @@ class Settings:
     link_timeout_s: float = 0.5
     mode_publish_rate_hz: float = 1.0
     diagnostics_rate_hz: float = 1.0
+    loco_outcome_timeout_s: float = 3.0
+    loco_motion_timeout_s: float = 6.0
+    odom_rate_hz: float = 0.0
+    odom_frame_id: str = "odom"
+    odom_child_frame_id: str = "pelvis"
+    odom_publish_tf: bool = True
     estop_call_timeout_s: float = EstopTiming.call_s
     estop_select_timeout_s: float = EstopTiming.select_s
     estop_timeout_s: float = EstopTiming.total_s
@@ -124,6 +131,17 @@ _DESCRIPTIONS: dict[str, str] = {
     "e.g. 'eth0' for a real G1. Read at start.",
     "dds_domain": "Cyclone DDS domain of the robot side (a real G1 uses 0). Read at start.",
     "rpc_timeout_s": "Timeout of one robot RPC (loco and motion switcher calls), s.",
+    "loco_outcome_timeout_s": "~/loco_command answers success only once the robot shows the command's outcome "
+    "(fsm id, balance mode, stand height, arm task); it waits at most this long for it, s.",
+    "loco_motion_timeout_s": "The same for stand_up, squat and sit, which start a posture motion of seconds: "
+    "answered when the motion finished (fsm_mode 0), s.",
+    "not_walking_after_s": "Moves acknowledged for this long while the robot's odometry shows it not walking "
+    "(below a fifth of the command) -> a WARN on /diagnostics and in ~/mode, s.",
+    "odom_rate_hz": "Publish odom (nav_msgs/Odometry) and the odom -> child frame TF from the robot's "
+    "rt/lf/odommodestate at most this often, each sample once; 0 = off.",
+    "odom_frame_id": "Frame of the robot's odometry (header.frame_id of odom, parent of the TF).",
+    "odom_child_frame_id": "Body frame of the odometry (child_frame_id, the TF's child); the G1's URDF root is pelvis.",
+    "odom_publish_tf": "Also publish the odom -> child frame transform on /tf (when odom_rate_hz > 0).",
     "select_timeout_s": "How long SelectMode('ai') plus its confirmation may take, s (a real robot takes seconds).",
     "release_timeout_s": "How long ReleaseMode may take until CheckMode reports no service, s.",
     "cmd_vel_timeout_s": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
@@ -201,6 +219,7 @@ _RANGES: dict[str, tuple[float, float]] = {
     "move_duration_s": (0.1, MAX_MOVE_DURATION_S),  # continuous Moves (864000 s) would outlive a dead node
     "joint_state_rate_hz": (0.0, 1000.0),  # 0 = off
     "sportmodestate_rate_hz": (0.0, 1000.0),  # 0 = off
+    "odom_rate_hz": (0.0, 500.0),  # 0 = off
     "battery_low_pct": (0.0, 100.0),
     "battery_critical_pct": (0.0, 100.0),
     "body_check_rate_hz": (1.0, 500.0),

@@ -1,10 +1,13 @@
-"""~/loco_command: when a verb of the built-in controller may reach the robot, and the sending of it.
+"""~/loco_command: when a verb of the built-in controller may reach the robot, the sending of it, and its
+answer, given only once the robot shows the verb's outcome (relay/loco_outcome.py).
 
-ROS-free: the node serves the request, this decides and sends; the verbs themselves are core/loco_verbs.py.
+ROS-free: the node serves the request, this decides, sends and judges; the verbs are core/loco_verbs.py.
 """
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
@@ -15,6 +18,7 @@ from g1_mode_manager.core.loco_verbs import LOCO_VERBS
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.protocol.fsm import FsmMode
+from g1_mode_manager.relay.loco_outcome import OutcomeWatch, Preemption, Seen
 
 #: LocoCommand code of a command refused here, before anything was sent to the robot.
 NOT_SENT = -1
@@ -22,9 +26,12 @@ NOT_SENT = -1
 
 @dataclass(frozen=True)
 class LocoResult:
+    """``outcome_s``: from the send to the outcome seen on the robot; -1 when it was not seen."""
+
     success: bool
     message: str
     code: int = NOT_SENT
+    outcome_s: float = -1.0
 
 
 class LocoGate(Protocol):
@@ -39,14 +46,48 @@ def _damp_allowed(mode: Mode) -> bool:
     return mode not in (Mode.UNINITIALIZED, Mode.LOW_LEVEL)
 
 
-def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int) -> LocoResult:
-    """Check the command against the mode and the robot's state, then send it.
+class LocoCommands:
+    """Serves loco commands on one robot port; ``on_leave`` (a mode machine leave listener) preempts the
+    commands still waiting for their outcome."""
+
+    def __init__(self, port: RobotPort, gate: LocoGate, *, outcome_timeout_s: float = 3.0,
+                 motion_timeout_s: float = 6.0) -> None:  # fmt: skip
+        self._port = port
+        self._gate = gate
+        self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s)
+        self._lock = threading.Lock()
+        self._waiting: set[Preemption] = set()
+
+    def on_leave(self, source: Mode, target: Mode) -> None:
+        """Runs in the thread that changes the mode (the e-stop's among them): only sets events."""
+        reason = "preempted by e-stop" if target is Mode.EMERGENCY else f"preempted: mode {source.name} -> {target.name}"
+        with self._lock:
+            waiting = tuple(self._waiting)
+        for preemption in waiting:
+            preemption.preempt(reason)
+
+    def run(self, command: str, value: int) -> LocoResult:
+        """Check, send, then wait for the robot to show the outcome (see run_loco_command)."""
+        preemption = Preemption()
+        with self._lock:  # registered before the send: a mode change from here on preempts the wait
+            self._waiting.add(preemption)
+        try:
+            return run_loco_command(self._port, self._gate, command, value, self._watch, preemption)
+        finally:
+            with self._lock:
+                self._waiting.discard(preemption)
+
+
+def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int, watch: OutcomeWatch,
+                     preemption: Preemption) -> LocoResult:  # fmt: skip
+    """Check the command against the mode and the robot's state, send it, then wait for its outcome.
 
     Damping is allowed wherever the sport service can answer (every connected mode but LOW_LEVEL);
     everything else only in HIGH_LEVEL (with no transition in flight) and only while the robot is
     static (fsm_mode 0), as the robot itself would refuse most switches while dynamic. The mode check
     and the send are one ``robot_call``: an e-stop that begins meanwhile refuses it, or waits for it to
-    land and then re-damps.
+    land and then re-damps. The outcome wait comes after, outside the gate, so it never delays an e-stop;
+    ``success`` only once the robot showed the outcome (code 0 alone is not enough).
     """
     mode = gate.mode
     name = command.strip().lower()
@@ -70,14 +111,30 @@ def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int) 
             return LocoResult(False, "no rt/sportmodestate received: the robot's state is unknown")
         if state.fsm_mode == FsmMode.DYNAMIC:
             return LocoResult(False, "the robot is dynamic (fsm_mode 1): only damp is allowed; stop it first")
+    expected = verb.expect(value)
+    before = watch.before(expected)
     with gate.robot_call(_damp_allowed if name == "damp" else modes.allows_loco_commands) as allowed:
         if not allowed:
             return _not_allowed(gate.mode)
+        sent_at = time.monotonic()
         try:
             verb.send(port, value)
         except RobotError as exc:
             return LocoResult(False, str(exc), exc.code)
-    return LocoResult(True, f"{name} sent" + (f" (value {value})" if r is not None else ""), 0)
+    what = name + (f" (value {value})" if r is not None else "")
+    return _judged(what, watch.wait(expected, sent_at, before, preemption), watch.limit_s(expected))
+
+
+def _judged(what: str, seen: Seen, limit_s: float) -> LocoResult:
+    if seen.preempted is not None:
+        return LocoResult(False, f"{what}: code 0, {seen.preempted} after {seen.after_s:.2f} s "
+                                 f"(the robot showed {seen.shown})", 0)  # fmt: skip
+    if seen.ok:
+        return LocoResult(True, f"{what}: done, the robot shows {seen.shown} after {seen.after_s:.2f} s",
+                          0, seen.after_s)  # fmt: skip
+    if seen.after_s == 0.0:  # nothing to read back: the return code is all there is
+        return LocoResult(True, f"{what}: code 0, {seen.shown}", 0)
+    return LocoResult(False, f"{what}: code 0, but the robot showed {seen.shown} for {limit_s:.1f} s", 0)
 
 
 def _not_allowed(mode: Mode) -> LocoResult:

@@ -164,6 +164,12 @@ class UnitreeRobot:
     def get_fsm_mode(self) -> int:
         return self.loco.get_fsm_mode()
 
+    def get_balance_mode(self, timeout_s: float | None = None) -> int:
+        return self.loco.get_balance_mode(timeout_s=timeout_s)
+
+    def get_stand_height(self, timeout_s: float | None = None) -> float:
+        return self.loco.get_stand_height(timeout_s=timeout_s)
+
     def set_balance_mode(self, mode: int) -> None:
         self.loco.set_balance_mode(mode)
 

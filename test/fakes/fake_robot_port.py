@@ -60,6 +60,11 @@ class FakeRobotPort(FakeRobot):
         self.move_reply_hold: threading.Event | None = None
         self.lowstate_sample: tuple[bytes, int] | None = None  # raw rt/lowstate: none unless a test sets it
         self.voice_port: VoicePort | None = None  # no voice service unless a test sets one
+        # What the loco calls change, so that their outcomes can be read back (as on the robot):
+        self.ignored_fsm_ids: set[int] = set()  # SetFsmId of these answers 0 and does nothing (firmware quirk)
+        self.balance_mode = 0
+        self.stand_height = 0.75
+        self.outcomes = True  # False: every loco call answers 0 and changes nothing
 
     def _record(self, name: str, *args: object) -> None:
         code = self.fail_stream.get(name)
@@ -74,6 +79,14 @@ class FakeRobotPort(FakeRobot):
 
     def set_fsm_id(self, fsm_id: int) -> None:
         self._record("set_fsm_id", fsm_id)
+        if self.outcomes and fsm_id not in self.ignored_fsm_ids and self.sport is not None:
+            self.sport = dataclasses.replace(self.sport, fsm_id=fsm_id, fsm_mode=0, task_id=0, task_time=0.0)
+
+    def get_balance_mode(self, timeout_s: float | None = None) -> int:
+        return self.balance_mode
+
+    def get_stand_height(self, timeout_s: float | None = None) -> float:
+        return self.stand_height
 
 
     def get_fsm_mode(self) -> int:
@@ -81,18 +94,26 @@ class FakeRobotPort(FakeRobot):
 
     def set_balance_mode(self, mode: int) -> None:
         self._record("set_balance_mode", mode)
+        if self.outcomes:
+            self.balance_mode = mode
 
     def set_speed_mode(self, mode: int) -> None:
         self._record("set_speed_mode", mode)
 
     def high_stand(self) -> None:
         self._record("high_stand")
+        if self.outcomes:
+            self.stand_height = 0.78
 
     def low_stand(self) -> None:
         self._record("low_stand")
+        if self.outcomes:
+            self.stand_height = 0.6
 
     def set_arm_task(self, task_id: int) -> None:
         self._record("set_arm_task", task_id)
+        if self.outcomes and self.sport is not None:  # the motion has just begun
+            self.sport = dataclasses.replace(self.sport, task_id=task_id, task_time=0.001)
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self._record("set_velocity", vx, vy, wz, duration_s)

@@ -1,7 +1,10 @@
-"""The high-level surface of ~/loco_command (stand height, arm tasks), checked without ROS on the fake port."""
+"""~/loco_command without ROS on the fake port: what each verb sends, when it is refused, and that it is answered
+on the outcome the robot shows, not on the return code."""
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
@@ -10,7 +13,7 @@ import pytest
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
-from g1_mode_manager.relay.loco_command import run_loco_command
+from g1_mode_manager.relay.loco_command import LocoCommands, LocoResult
 
 
 class Gate:
@@ -23,6 +26,11 @@ class Gate:
     @contextmanager
     def robot_call(self, allowed: Callable[[Mode], bool]) -> Iterator[bool]:
         yield self.open and allowed(self.mode)
+
+
+def run_loco_command(port: FakeRobotPort, gate: Gate, command: str, value: int, *,
+                     timeout_s: float = 0.3) -> LocoResult:  # fmt: skip
+    return LocoCommands(port, gate, outcome_timeout_s=timeout_s, motion_timeout_s=timeout_s).run(command, value)
 
 
 SURFACE = [
@@ -56,6 +64,84 @@ def test_each_command_sends_its_call_in_high_level_while_static(command: str, va
     result = run_loco_command(port, Gate(), command, value)
     assert result.success and result.code == 0, result.message
     assert [(s.name, s.args) for s in port.sent] == [sent]
+    if command == "speed_mode":  # nothing on the robot to read it back from: said, and no outcome time
+        assert "not verified" in result.message and result.outcome_s == -1.0
+    else:
+        assert "done, the robot shows" in result.message and 0.0 < result.outcome_s < 0.3, result
+
+
+@pytest.mark.parametrize(("command", "value", "sent"), [c for c in SURFACE + POSTURE if c[0] != "speed_mode"])
+def test_each_command_fails_with_code_0_when_the_robot_does_not_show_its_outcome(command: str, value: int,
+                                                                                 sent: tuple) -> None:
+    port = FakeRobotPort()
+    port.balance_mode = 1 - value if command == "continuous_gait" else 1  # so that a change would show
+    if command == "stand_up":  # asking for the fsm the robot is in is its own outcome: start elsewhere
+        port.sport = SportState(fsm_id=500, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
+    port.outcomes = False
+    started = time.monotonic()
+    result = run_loco_command(port, Gate(), command, value, timeout_s=0.2)
+    waited = time.monotonic() - started
+    assert not result.success and result.code == 0 and result.outcome_s == -1.0, result
+    assert "but the robot showed" in result.message and "for 0.2 s" in result.message, result.message
+    assert waited >= 0.2
+    assert [(s.name, s.args) for s in port.sent] == [sent]
+
+
+def test_start_ignored_by_the_firmware_answers_false_with_the_fsm_it_saw() -> None:
+    port = FakeRobotPort()
+    port.ignored_fsm_ids = {500}
+    result = run_loco_command(port, Gate(), "start", 0, timeout_s=0.2)
+    assert not result.success and result.code == 0
+    assert result.message == "start: code 0, but the robot showed fsm 4 (fsm_mode 0) for 0.2 s"
+
+
+def test_a_state_from_before_the_send_does_not_count_as_the_outcome() -> None:
+    port = FakeRobotPort()
+    port.sport = SportState(fsm_id=1, fsm_mode=0, task_id=0, task_time=0.0, age_s=5.0)  # damped, but stale
+    port.outcomes = False
+    result = run_loco_command(port, Gate(Mode.IDLE), "damp", 0, timeout_s=0.2)
+    assert not result.success and "nothing yet" in result.message, result.message
+
+
+def test_a_task_that_began_before_the_send_is_not_its_outcome() -> None:
+    port = FakeRobotPort()
+    port.sport = SportState(fsm_id=500, fsm_mode=0, task_id=0, task_time=1.5, age_s=0.01)  # a wave half played
+    port.outcomes = False
+    result = run_loco_command(port, Gate(), "wave_hand", 0, timeout_s=0.2)
+    assert not result.success and "task 0 at 1.50 s" in result.message, result.message
+
+
+def test_a_stand_height_already_at_a_verified_extreme_counts_without_moving() -> None:
+    port = FakeRobotPort()
+    commands = LocoCommands(port, Gate(), outcome_timeout_s=0.2, motion_timeout_s=0.2)
+    first = commands.run("high_stand", 0)
+    assert first.success, first.message
+    again = commands.run("high_stand", 0)  # 0.78 -> 0.78: the extreme the first one verified
+    assert again.success and "stand height 0.780 (before: 0.780)" in again.message, again.message
+    unknown = run_loco_command(port, Gate(), "high_stand", 0, timeout_s=0.2)  # a fresh service knows no extreme
+    assert not unknown.success, unknown.message
+
+
+@pytest.mark.parametrize(("target", "reason"), [(Mode.EMERGENCY, "preempted by e-stop"),
+                                                (Mode.IDLE, "preempted: mode HIGH_LEVEL -> IDLE")])  # fmt: skip
+def test_a_mode_change_preempts_a_command_waiting_for_its_outcome(target: Mode, reason: str) -> None:
+    port = FakeRobotPort()
+    port.outcomes = False
+    commands = LocoCommands(port, Gate(), outcome_timeout_s=5.0, motion_timeout_s=5.0)
+    results: list[LocoResult] = []
+    waiter = threading.Thread(target=lambda: results.append(commands.run("start", 0)))
+    waiter.start()
+    deadline = time.monotonic() + 2.0
+    while not port.sent and time.monotonic() < deadline:
+        time.sleep(0.005)
+    time.sleep(0.05)  # well inside the wait
+    left = time.monotonic()
+    commands.on_leave(Mode.HIGH_LEVEL, target)
+    waiter.join(2.0)
+    assert results, "the command was not answered"
+    assert time.monotonic() - left < 0.5  # answered at once, not at the 5 s limit
+    result = results[0]
+    assert not result.success and result.code == 0 and reason in result.message, result.message
 
 
 @pytest.mark.parametrize("command", sorted({c for c, _, _ in SURFACE}))

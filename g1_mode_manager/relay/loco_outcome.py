@@ -1,0 +1,154 @@
+"""A loco command's outcome: what the robot shows after the command, read back from the robot itself.
+
+The robot's return code says the request was accepted, not that anything happened (firmware 1.5.3 answers
+0 to SetFsmId(500) and stays where it is). So each verb names the state it is judged by (core/loco_verbs.py)
+and this waits, bounded, until the robot shows it: rt/sportmodestate for fsm ids and arm tasks (only
+samples received after the send count), GetBalanceMode and GetStandHeight for the rest. The wait holds
+no lock and no gate: it ends early, as "preempted", when the mode changes under it (an e-stop first).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from g1_mode_manager.core.loco_verbs import (
+    BalanceShown,
+    Expected,
+    FsmShown,
+    NotReadable,
+    StandHeightShown,
+    TaskShown,
+)
+from g1_mode_manager.core.port import RobotError, RobotPort, SportState
+from g1_mode_manager.protocol.fsm import FsmMode
+
+#: How often rt/sportmodestate is looked at (it arrives at 50 Hz), and how often a getter is asked (an RPC).
+STATE_POLL_S = 0.005
+GETTER_POLL_S = 0.05
+#: A getter's own timeout while waiting: short, so that one lost reply does not eat the whole wait.
+GETTER_TIMEOUT_S = 0.5
+#: A task_time may lead the time since the send by this much (the robot's and this clock's sampling).
+TASK_TIME_SLACK_S = 0.05
+
+
+@dataclass(frozen=True)
+class Seen:
+    """``ok``: the outcome was seen, ``after_s`` after the send began (else: how long was waited);
+    ``shown``: what the robot last showed, in words; ``preempted``: why the wait ended early, or None."""
+
+    ok: bool
+    after_s: float
+    shown: str
+    preempted: str | None = None
+
+
+class Preemption:
+    """Set, once, by whoever changes the mode under a waiting command; the first reason wins."""
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+        self.reason: str | None = None
+
+    def preempt(self, reason: str) -> None:
+        if not self._event.is_set():
+            self.reason = reason
+            self._event.set()
+
+    def wait(self, seconds: float) -> bool:
+        return self._event.wait(seconds)
+
+    @property
+    def is_set(self) -> bool:
+        return self._event.is_set()
+
+
+class OutcomeWatch:
+    """Waits for one verb's outcome on ``port``; remembers the stand height extremes it verified."""
+
+    def __init__(self, port: RobotPort, *, timeout_s: float, motion_timeout_s: float,
+                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+        if not timeout_s > 0 or not motion_timeout_s > 0:
+            raise ValueError("outcome timeouts must be > 0")
+        self._port = port
+        self.timeout_s = float(timeout_s)
+        self.motion_timeout_s = float(motion_timeout_s)
+        self._clock = clock
+        self._stand_extremes: dict[bool, float] = {}  # highest? -> the height a verified command left
+
+    def limit_s(self, expected: Expected) -> float:
+        return self.motion_timeout_s if isinstance(expected, FsmShown) and expected.motion else self.timeout_s
+
+    def before(self, expected: Expected) -> float | None:
+        """What must be known before the send: the stand height it must move from (None if unreadable)."""
+        if not isinstance(expected, StandHeightShown):
+            return None
+        try:
+            return self._port.get_stand_height(GETTER_TIMEOUT_S)
+        except RobotError:
+            return None
+
+    def wait(self, expected: Expected, sent_at: float, before: float | None, preemption: Preemption) -> Seen:
+        """Block until the robot shows ``expected``, the limit passes or ``preemption`` is set."""
+        if isinstance(expected, NotReadable):
+            return Seen(False, 0.0, f"not verified: {expected.why}")
+        limit = self.limit_s(expected)
+        poll = GETTER_POLL_S if isinstance(expected, BalanceShown | StandHeightShown) else STATE_POLL_S
+        shown = "nothing yet"
+        while True:
+            ok, shown = self._look(expected, sent_at, before, shown)
+            elapsed = self._clock() - sent_at
+            if ok:
+                return Seen(True, elapsed, shown)
+            if elapsed >= limit:
+                return Seen(False, elapsed, shown)
+            if preemption.wait(min(poll, limit - elapsed)):
+                return Seen(False, self._clock() - sent_at, shown, preemption.reason)
+
+    def _look(self, expected: Expected, sent_at: float, before: float | None, shown: str) -> tuple[bool, str]:
+        match expected:
+            case FsmShown(fsm_id=fsm_id):
+                state = self._fresh_state(sent_at)
+                if state is None:
+                    return False, shown
+                ok = state.fsm_id == fsm_id and state.fsm_mode == FsmMode.STATIC
+                moving = ", still moving" if state.fsm_mode == FsmMode.DYNAMIC else ""
+                return ok, f"fsm {state.fsm_id} (fsm_mode {state.fsm_mode}{moving})"
+            case TaskShown(task_id=task_id):
+                state = self._fresh_state(sent_at)
+                if state is None:
+                    return False, shown
+                received_after_send = self._clock() - state.age_s - sent_at
+                ok = (state.task_id == task_id and state.task_time > 0.0
+                      and state.task_time <= received_after_send + TASK_TIME_SLACK_S)  # fmt: skip
+                task = f"task {state.task_id} at {state.task_time:.2f} s" if state.task_time > 0 else "no arm task"
+                return ok, task
+            case BalanceShown(mode=mode):
+                try:
+                    got = self._port.get_balance_mode(GETTER_TIMEOUT_S)
+                except RobotError as exc:
+                    return False, str(exc)
+                return got == mode, f"balance mode {got}"
+            case StandHeightShown(highest=highest):
+                try:
+                    got = self._port.get_stand_height(GETTER_TIMEOUT_S)
+                except RobotError as exc:
+                    return False, str(exc)
+                if before is None:
+                    return False, f"stand height {got:.3f} (its value before the command could not be read)"
+                moved = got > before if highest else got < before
+                at_extreme = self._stand_extremes.get(highest) == got == before
+                if moved or at_extreme:
+                    self._stand_extremes[highest] = got
+                return moved or at_extreme, f"stand height {got:.3f} (before: {before:.3f})"
+            case _:
+                raise TypeError(f"unknown outcome {expected!r}")
+
+    def _fresh_state(self, sent_at: float) -> SportState | None:
+        """The last rt/sportmodestate if it arrived after ``sent_at`` (one from before cannot show an outcome)."""
+        state = self._port.sport_state()
+        if state is None or self._clock() - state.age_s <= sent_at:
+            return None
+        return state
