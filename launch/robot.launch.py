@@ -29,6 +29,8 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument("params_file", default_value=default_params, description="mode manager parameters"),
         DeclareLaunchArgument("namespace", default_value="", description="ROS namespace of the node, e.g. /g1_a"),
         DeclareLaunchArgument("dds_domain", default_value="0", description="Unitree SDK2 DDS domain (a G1 uses 0)"),
+        DeclareLaunchArgument("odom_rate_hz", default_value="20.0",
+                              description="odom + odom->pelvis TF from the robot's rt/lf/odommodestate, Hz (0 = off)"),
         DeclareLaunchArgument("joint_state_rate_hz", default_value="50.0",
                               description="joint_states and ~/imu rate from rt/lowstate, Hz (0 = off)"),
         # No `name=`: a node-name remap would also rename the node's e-stop and services side nodes.
@@ -37,5 +39,9 @@ def generate_launch_description() -> LaunchDescription:
                  "network_interface": LaunchConfiguration("network_interface"),
                  "dds_domain": ParameterValue(LaunchConfiguration("dds_domain"), value_type=int),
                  "joint_state_rate_hz": ParameterValue(LaunchConfiguration("joint_state_rate_hz"), value_type=float),
-             }]),
+                 "odom_rate_hz": ParameterValue(LaunchConfiguration("odom_rate_hz"), value_type=float),
+             }],
+             # one DDS stack per process: never rmw_cyclonedds beside the SDK's Cyclone (node/one_dds_stack.py),
+             # whatever the shell exports for the other nodes
+             additional_env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}),
     ])  # fmt: skip

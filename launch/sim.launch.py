@@ -39,6 +39,8 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument("speed", default_value="1.0", description="sim time per wall time (0 = as fast as possible)"),
         DeclareLaunchArgument("viewer", default_value="false", description="open the MuJoCo viewer (needs a display)"),
         DeclareLaunchArgument("params_file", default_value=default_params, description="mode manager parameters"),
+        DeclareLaunchArgument("odom_rate_hz", default_value="20.0",
+                              description="odom + odom->pelvis TF from the robot's rt/lf/odommodestate, Hz (0 = off)"),
         DeclareLaunchArgument("joint_state_rate_hz", default_value="0.0",
                               description="mode manager joint_states/~/imu rate, Hz (0 = off: the sim publishes "
                                           "<namespace>/joint_states itself, from MuJoCo)"),
@@ -51,5 +53,9 @@ def generate_launch_description() -> LaunchDescription:
                  "network_interface": "lo",
                  "dds_domain": ParameterValue(domain, value_type=int),
                  "joint_state_rate_hz": ParameterValue(LaunchConfiguration("joint_state_rate_hz"), value_type=float),
-             }]),
+                 "odom_rate_hz": ParameterValue(LaunchConfiguration("odom_rate_hz"), value_type=float),
+             }],
+             # one DDS stack per process: never rmw_cyclonedds beside the SDK's Cyclone (node/one_dds_stack.py),
+             # whatever the shell exports for the other nodes
+             additional_env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}),
     ])  # fmt: skip

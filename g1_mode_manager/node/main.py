@@ -8,25 +8,49 @@ the node at exit.)
 
 from __future__ import annotations
 
+import os
 import signal
+import sys
 import threading
 
-import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.signals import SignalHandlerOptions
+# Nothing of rclpy or the SDK before the RMW check: importing rclpy loads rcl, which loads the RMW named in
+# the environment (and exits 102 if that one is not installed).
+from g1_mode_manager.node.one_dds_stack import refusal_from_environment, second_dds_stack
 
-from g1_mode_manager.node.mode_manager import ModeManagerNode
+#: Exit status of a refused start (a configuration error, not a crash).
+REFUSED = 2
 
 
-def _spin(executor: SingleThreadedExecutor) -> None:
+def _spin(executor) -> None:
+    from rclpy.executors import ExternalShutdownException
+
     try:
         executor.spin()
     except ExternalShutdownException:
         pass
 
 
+def _refuse(why: str) -> None:
+    print(f"[FATAL] [g1_mode_manager]: {why}", file=sys.stderr, flush=True)
+    raise SystemExit(REFUSED)
+
+
 def main(args: list[str] | None = None) -> None:
+    refusal = refusal_from_environment(os.environ)
+    if refusal:
+        _refuse(refusal)
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+    from rclpy.utilities import get_rmw_implementation_identifier
+
+    from g1_mode_manager.node.mode_manager import ModeManagerNode
+
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    refusal = second_dds_stack(get_rmw_implementation_identifier())  # a default RMW other than Fast DDS
+    if refusal:
+        rclpy.try_shutdown()
+        _refuse(refusal)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())

@@ -24,8 +24,9 @@ def _arguments(path: Path) -> dict[str, bool]:
 
 
 @pytest.mark.parametrize(("name", "required", "optional"), [
-    ("sim.launch.py", set(), {"domain", "namespace", "speed", "viewer", "params_file"}),
-    ("robot.launch.py", {"network_interface"}, {"params_file", "namespace", "dds_domain", "joint_state_rate_hz"}),
+    ("sim.launch.py", set(), {"domain", "namespace", "speed", "viewer", "params_file", "odom_rate_hz"}),
+    ("robot.launch.py", {"network_interface"}, {"params_file", "namespace", "dds_domain", "joint_state_rate_hz",
+                                                "odom_rate_hz"}),
 ])  # fmt: skip
 def test_launch_arguments(name: str, required: set[str], optional: set[str]) -> None:
     args = _arguments(LAUNCH / name)
@@ -40,3 +41,15 @@ def test_launch_files_build_their_description_where_launch_is_installed() -> Non
 
     for path in sorted(LAUNCH.glob("*.launch.py")):
         assert get_launch_description_from_python_launch_file(str(path)).entities
+
+
+@pytest.mark.parametrize("name", ["sim.launch.py", "robot.launch.py"])
+def test_launch_files_run_the_node_on_fast_dds_whatever_the_shell_exports(name: str) -> None:
+    """A G1 user's shell often exports rmw_cyclonedds_cpp (Unitree's instructions), which the node refuses."""
+    tree = ast.parse((LAUNCH / name).read_text())
+    nodes = [n for n in ast.walk(tree) if isinstance(n, ast.Call) and getattr(n.func, "id", "") == "Node"
+             and any(k.arg == "executable" and getattr(k.value, "value", "") == "mode_manager" for k in n.keywords)]
+    assert nodes
+    for node in nodes:
+        env = next(ast.literal_eval(k.value) for k in node.keywords if k.arg == "additional_env")
+        assert env == {"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}
