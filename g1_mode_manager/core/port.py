@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND, describe_code
+from g1_mode_manager.protocol.odom_fields import OdomFields
 
 
 class RobotError(Exception):
@@ -123,6 +124,15 @@ class StateSample:
     low_rate: bool  # from rt/lf/lowstate (about 20 Hz), not rt/lowstate
 
 
+@dataclass(frozen=True)
+class OdomSample:
+    """The newest rt/lf/odommodestate (the robot's state estimate), its age and how many arrived so far."""
+
+    fields: OdomFields
+    age_s: float
+    count: int
+
+
 @runtime_checkable
 class RobotPort(ModePort, Protocol):
     """Everything the node sends to or reads from the robot."""
@@ -170,6 +180,9 @@ class RobotPort(ModePort, Protocol):
 
     def battery_soc(self) -> tuple[float, float] | None:
         """(state of charge %, age s) of the newest rt/lf/bmsstate; None before one arrived."""
+
+    def odometry(self) -> OdomSample | None:
+        """The newest rt/lf/odommodestate; None before one arrived (old firmware, or never in high-level mode)."""
 
     def lowstate_restarts(self) -> int:
         """How often rt/lowstate's tick went back (the robot rebooted) since connect."""

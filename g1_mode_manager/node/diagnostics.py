@@ -7,6 +7,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.relay.link_health import LinkReport
+from g1_mode_manager.relay.walk_judge import WalkReport
 
 
 def _kv(key: str, value: object) -> KeyValue:
@@ -71,6 +72,21 @@ def build_diagnostics(stamp, hardware_id: str, status: MachineStatus, link: Link
     streams.message = f"{refused} commands dropped or rejected"
     streams.values = [_kv(k, v) for k, v in sorted(counts.items())]
     return DiagnosticArray(header=_header(stamp), status=[link_status, mode_status, streams])
+
+
+def walk_status(report: WalkReport, hardware_id: str) -> DiagnosticStatus:
+    """Whether the robot walks when it acknowledges Moves (relay/walk_judge.py): WARN while it does not."""
+    st = DiagnosticStatus(name="g1_mode_manager: walking", hardware_id=hardware_id)
+    if report.warning:
+        st.level, st.message = DiagnosticStatus.WARN, report.warning
+    elif report.judged:
+        st.level, st.message = DiagnosticStatus.OK, "Moves acknowledged and the odometry shows the robot walking"
+    else:
+        st.level = DiagnosticStatus.OK
+        st.message = "not judged: no Move acknowledged lately, or no fresh odometry from the robot"
+    st.values = [_kv("commanded_mps", report.commanded[0]), _kv("commanded_radps", report.commanded[1]),
+                 _kv("measured_mps", report.measured[0]), _kv("measured_radps", report.measured[1])]
+    return st
 
 
 def _header(stamp):

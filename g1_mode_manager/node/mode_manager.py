@@ -22,10 +22,12 @@ from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort, VoicePort
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
+from g1_mode_manager.core.velocity import Velocity
 from g1_mode_manager.display.head_led import HeadLed, parse_looks
 from g1_mode_manager.node.body_supervision import BodySupervision
-from g1_mode_manager.node.diagnostics import build_diagnostics
+from g1_mode_manager.node.diagnostics import build_diagnostics, walk_status
 from g1_mode_manager.node.estop import EstopEndpoint
+from g1_mode_manager.node.odometry import OdometryPublisher
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.node.stream_taker import StreamTaker
@@ -39,6 +41,7 @@ from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.stamps import stamp_age_s
+from g1_mode_manager.relay.walk_judge import WalkJudge
 from g1_mode_manager.topic_qos import MODE_QOS
 
 PortFactory = Callable[[Settings], RobotPort]
@@ -96,10 +99,14 @@ class ModeManagerNode(Node):
         self._service_side.node.create_service(LocoCommand, self._service_side.name_under_main("loco_command"),
                                            self._on_loco_command, callback_group=services)
 
+        self._walk = WalkJudge(s.not_walking_after_s)
         self._cmd_vel = CmdVelRelay(self._port, self.machine, self._link, self._events, limits=s.velocity_limits(),
                                     timeout_s=s.cmd_vel_timeout_s, move_duration_s=s.move_duration_s,
                                     rate_hz=s.cmd_vel_rate_hz, max_rate_hz=s.cmd_vel_max_rate_hz,
-                                    on_error=self._worker_error)
+                                    on_error=self._worker_error, on_acknowledged=self._judge_walk)
+        self._odom = OdometryPublisher(self, self._port, lambda: self.machine.mode, frame_id=s.odom_frame_id,
+                                       child_frame_id=s.odom_child_frame_id, publish_tf=s.odom_publish_tf,
+                                       enabled=s.odom_rate_hz > 0)
         self._arm = ArmRelay(self._port, self.machine, self._link, self._events, ramp_time_s=s.arm_ramp_time_s,
                              silence_timeout_s=s.arm_cmd_timeout_s, kp=s.arm_kp, kd=s.arm_kd,
                              period_s=1.0 / s.arm_rate_hz)
@@ -133,6 +140,9 @@ class ModeManagerNode(Node):
                                           self._worker_error),
                            PeriodicWorker("diagnostics", s.diagnostics_rate_hz, self._while_ok(self._publish_diagnostics),
                                           self._worker_error)]
+        if s.odom_rate_hz > 0:
+            self._state_out.append(PeriodicWorker("odometry", s.odom_rate_hz, self._while_ok(self._odom.tick),
+                                                  self._worker_error))
         if s.sportmodestate_rate_hz > 0:
             self._state_out.append(PeriodicWorker("sportmodestate_mirror", s.sportmodestate_rate_hz,
                                                   self._while_ok(self._mirror_sport_state), self._worker_error))
@@ -330,14 +340,23 @@ class ModeManagerNode(Node):
             reasserts=status.reasserts,
             faults=list(status.faults),
             holds=list(status.holds),
-            warnings=list(self._body.monitor.warnings()),
+            warnings=[*self._body.monitor.warnings(), *self._walk_warning()],
         ))
+
+    def _judge_walk(self, v: Velocity, sent_at: float) -> None:
+        self._walk.acknowledged(v.vx, v.vy, v.wz, sent_at, self._port.odometry())
+
+    def _walk_warning(self) -> list[str]:
+        warning = self._walk.report(time.monotonic()).warning
+        return [warning] if warning else []
 
     def _publish_diagnostics(self) -> None:
         status, name = self.machine.status(), self.get_fully_qualified_name()
         array = build_diagnostics(self.get_clock().now().to_msg(), name, status, self._link.report(),
                                   self._events.counts())
         array.status.extend(self._body.diagnostics(name, status.mode))
+        array.status.append(self._odom.status(name))
+        array.status.append(walk_status(self._walk.report(time.monotonic()), name))
         self._diag_pub.publish(array)
 
     # --- logging ---------------------------------------------------------------------------------

@@ -55,6 +55,7 @@ class CmdVelRelay:
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
                  limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float,
                  max_rate_hz: float, on_error: Callable[[BaseException], None] | None = None,
+                 on_acknowledged: Callable[[Velocity, float], None] | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         if not (rate_hz > 0.0 and max_rate_hz > 0.0):
             raise ValueError(f"cmd_vel rates must be > 0 Hz, got {rate_hz} and {max_rate_hz}")
@@ -70,6 +71,7 @@ class CmdVelRelay:
         self._watchdog = Watchdog(timeout_s, clock)
         self._move_duration_s = check_move_duration(move_duration_s)
         self._on_error = on_error
+        self._on_acknowledged = on_acknowledged  # (the Move, when it was sent): e.g. a walk judge
         self._clock = clock
         self._target = ZERO
         self._lock = threading.Lock()
@@ -237,6 +239,8 @@ class CmdVelRelay:
         self._stop_reason = None
         self._stop_attempts = 0
         self._events.count("moves_sent")
+        if self._on_acknowledged is not None:
+            self._on_acknowledged(v, now)
 
     def _move_failed(self, exc: RobotError, v: Velocity) -> None:
         lost = exc.maybe_delivered  # sent, answer lost: it may be running

@@ -3,7 +3,7 @@
 The robot's return code says the request was accepted, not that anything happened (firmware 1.5.3 answers
 0 to SetFsmId(500) and stays where it is). So each verb names the state it is judged by (core/loco_verbs.py)
 and this waits, bounded, until the robot shows it: rt/sportmodestate for fsm ids and arm tasks (only
-samples received after the send count), GetBalanceMode and GetStandHeight for the rest. The wait holds
+samples taken after the send count), GetBalanceMode and GetStandHeight for the rest. The wait holds
 no lock and no gate: it ends early, as "preempted", when the mode changes under it (an e-stop first).
 """
 
@@ -82,7 +82,14 @@ class OutcomeWatch:
         return self.motion_timeout_s if isinstance(expected, FsmShown) and expected.motion else self.timeout_s
 
     def before(self, expected: Expected) -> float | None:
-        """What must be known before the send: the stand height it must move from (None if unreadable)."""
+        """What must be known before the send: the stand height it must move from (None if unreadable).
+
+        For the verbs judged on rt/sportmodestate, it takes what has arrived so far: the port stamps a sample
+        when it is taken, so a sample from before the send must not wait in the reader to be taken after it.
+        """
+        if isinstance(expected, FsmShown | TaskShown):
+            self._port.sport_state()
+            return None
         if not isinstance(expected, StandHeightShown):
             return None
         try:

@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TypeVar
 
-from g1_mode_manager.core.port import MotorCommand, PendingReply, RobotError, SportState, StateSample
+from g1_mode_manager.core.port import MotorCommand, OdomSample, PendingReply, RobotError, SportState, StateSample
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
 from g1_mode_manager.protocol.dds import init_channels
@@ -25,6 +25,7 @@ from g1_mode_manager.sdk.battery_reader import BatteryReader
 from g1_mode_manager.sdk.loco_client import LocoClient
 from g1_mode_manager.sdk.lowcmd import LowCmdWriter
 from g1_mode_manager.sdk.motion_switcher import MotionSwitcherClient
+from g1_mode_manager.sdk.odom_reader import OdomReader
 from g1_mode_manager.sdk.state_readers import LowStateReader, SportStateReader
 from g1_mode_manager.sdk.voice_client import VoiceClient
 
@@ -57,6 +58,7 @@ class UnitreeRobot:
         self._lowstate: LowStateReader | None = None
         self._lf_lowstate: LowStateReader | None = None  # always received: the body checks' cheap stream
         self._battery: BatteryReader | None = None
+        self._odom: OdomReader | None = None
         self._lowstate_wanted = True
         self._sport: SportStateReader | None = None
         self._ready = False
@@ -84,6 +86,7 @@ class UnitreeRobot:
                 self._lowstate.set_receiving(self._lowstate_wanted)
                 self._lf_lowstate = LowStateReader(topics.LF_LOWSTATE)
                 self._battery = BatteryReader()
+                self._odom = OdomReader()
                 self._sport = SportStateReader()
                 if self._sport_listener is not None:
                     self._sport.set_listener(self._relay_sport_state)
@@ -243,6 +246,9 @@ class UnitreeRobot:
     def battery_soc(self) -> tuple[float, float] | None:
         return None if self._battery is None else self._battery.soc()
 
+    def odometry(self) -> OdomSample | None:
+        return None if self._odom is None else self._odom.sample()
+
     def lowstate_restarts(self) -> int:
         return 0 if self._lowstate is None else self._lowstate.restarts
 
@@ -269,7 +275,7 @@ class UnitreeRobot:
             self._closed = True
             with self._voice_lock:
                 voice = self._voice
-            for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._arm, self._lowcmd,
+            for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._odom, self._arm, self._lowcmd,
                          self._loco, self._switcher, voice):  # fmt: skip
                 if part is not None:
                     try:

@@ -12,7 +12,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from fakes.fake_robot import FakeRobot
-from g1_mode_manager.core.port import MotorCommand, RobotError, SportState, StateSample, VoicePort
+from g1_mode_manager.core.port import MotorCommand, OdomSample, RobotError, SportState, StateSample, VoicePort
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
@@ -65,6 +65,7 @@ class FakeRobotPort(FakeRobot):
         self.balance_mode = 0
         self.stand_height = 0.75
         self.outcomes = True  # False: every loco call answers 0 and changes nothing
+        self.odom: OdomSample | None = None  # rt/lf/odommodestate: none unless a test sets it
 
     def _record(self, name: str, *args: object) -> None:
         code = self.fail_stream.get(name)
@@ -159,6 +160,9 @@ class FakeRobotPort(FakeRobot):
 
     def battery_soc(self) -> tuple[float, float] | None:
         return None if self.soc is None else (self.soc, 0.1)
+
+    def odometry(self) -> OdomSample | None:
+        return self.odom
 
     def lowstate_restarts(self) -> int:
         return self.restarts
