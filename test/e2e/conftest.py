@@ -110,30 +110,52 @@ class Stack:
         return math.hypot(v[0], v[1])
 
 
-@pytest.fixture
-def stack_factory(sdk_channels: int, tmp_path: Path) -> Iterator:
-    """factory(faults=None, node_params=(), bridge_args=()) -> Stack; everything it started is stopped after
-    the test. ``bridge_args`` go to sim_bridge (e.g. --no-ros-publish: the sim's own /joint_states off)."""
-    started: list[ManagedProcess] = []
-    clients: list[RosClient] = []
+class _Stacks:
+    """Starts stacks and stops everything it started."""
 
-    def factory(faults: dict | None = None, node_params: Sequence[str] = (), bridge_args: Sequence[str] = ()) -> Stack:
-        record = tmp_path / f"sim_record_{len(started)}.jsonl"
-        bridge = start_sim_bridge(sdk_channels, speed=1.0, faults=faults, extra_args=("--record", str(record), *bridge_args))
-        started.append(bridge)
-        node = start_mode_manager(sdk_channels, *node_params)
-        started.append(node)
+    def __init__(self, sdk_channels: int, records: Path) -> None:
+        self._sdk = sdk_channels
+        self._records = records
+        self._started: list[ManagedProcess] = []
+        self._clients: list[RosClient] = []
+
+    def start(self, faults: dict | None = None, node_params: Sequence[str] = (),
+              bridge_args: Sequence[str] = ()) -> Stack:  # fmt: skip
+        record = self._records / f"sim_record_{len(self._started)}.jsonl"
+        bridge = start_sim_bridge(self._sdk, speed=1.0, faults=faults,
+                                  extra_args=("--record", str(record), *bridge_args))  # fmt: skip
+        self._started.append(bridge)
+        node = start_mode_manager(self._sdk, *node_params)
+        self._started.append(node)
         ros = RosClient()
-        clients.append(ros)
+        self._clients.append(ros)
         ros.wait_node_answers()
         sim = shared_sim_status()  # SDK clients must live for the whole process (see support.sim_bridge)
         sim.wait_ready(15.0)
         return Stack(bridge, node, ros, sim, SimRecord(record))
 
-    yield factory
-    for ros in clients:
-        ros.close()
-    for proc in reversed(started):
-        code = proc.stop()
-        if code not in (0, None):
-            print(f"{proc.name} exited with {code}; output:\n{proc.output()[-4000:]}")
+    def stop(self) -> None:
+        for ros in self._clients:
+            ros.close()
+        for proc in reversed(self._started):
+            code = proc.stop()
+            if code not in (0, None):
+                print(f"{proc.name} exited with {code}; output:\n{proc.output()[-4000:]}")
+
+
+@pytest.fixture
+def stack_factory(sdk_channels: int, tmp_path: Path) -> Iterator:
+    """factory(faults=None, node_params=(), bridge_args=()) -> Stack; everything it started is stopped after
+    the test. ``bridge_args`` go to sim_bridge (e.g. --no-ros-publish: the sim's own /joint_states off)."""
+    stacks = _Stacks(sdk_channels, tmp_path)
+    yield stacks.start
+    stacks.stop()
+
+
+@pytest.fixture(scope="module")
+def module_stack_factory(sdk_channels: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator:
+    """The same, stopped after the module: for a file whose tests can share one robot (each test leaves it
+    as the next expects; a file stays in one worker, its tests in file order)."""
+    stacks = _Stacks(sdk_channels, tmp_path_factory.mktemp("stacks"))
+    yield stacks.start
+    stacks.stop()

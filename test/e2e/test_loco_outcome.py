@@ -22,6 +22,9 @@ from support.sim_record import fsm_of, is_damp, requests, states
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
+#: Short enough for the firmware quirk's wait, long enough for any outcome but a posture motion's.
+OUTCOME_TIMEOUT_S = 1.5
+
 #: How long after the e-stop's call its first Damp must reach the robot with a loco command waiting (the
 #: e-stop path without one: a few ms).
 ESTOP_BOUND_S = 0.05
@@ -50,8 +53,13 @@ def _answered_after(stack, api_id: int, since: float) -> float | None:
     return done[0]["t"] if done else None
 
 
-def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack_factory) -> None:
-    stack = stack_factory()
+@pytest.fixture(scope="module")
+def stack(module_stack_factory):
+    """One robot for the file: the tests run in order, and only the last one e-stops it."""
+    return module_stack_factory(node_params=(f"loco_outcome_timeout_s:={OUTCOME_TIMEOUT_S}",))
+
+
+def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> None:
     assert stack.set_mode("high_level").success
     assert wait_until(lambda: _standing(stack), 15.0)
 
@@ -101,24 +109,31 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack_factor
 
 
 
-def test_start_ignored_by_the_firmware_answers_false_with_the_fsm_the_robot_stayed_in(stack_factory) -> None:
-    stack = stack_factory(faults={"ignore_fsm_ids": [int(FsmId.START)]}, node_params=("loco_outcome_timeout_s:=1.0",))
+def _stand_still(stack) -> None:
+    """Back to the lock stand (from walking: fsm 4 straight away), in HIGH_LEVEL."""
     assert stack.set_mode("high_level").success
+    r = stack.loco("stand_up")
+    assert r.success, r.message
     assert wait_until(lambda: _standing(stack), 15.0)
+
+
+def test_start_ignored_by_the_firmware_answers_false_with_the_fsm_the_robot_stayed_in(stack) -> None:
+    _stand_still(stack)
+    stack.set_faults({"ignore_fsm_ids": [int(FsmId.START)]})
     sent, r, answered = _timed(lambda: stack.loco("start"))
     assert not r.success and r.code == 0 and r.outcome_s == -1.0
-    assert r.message == "start: code 0, but the robot showed fsm 4 (fsm_mode 0) for 1.0 s", r.message
+    assert r.message == f"start: code 0, but the robot showed fsm 4 (fsm_mode 0) for {OUTCOME_TIMEOUT_S} s", r.message
     events = stack.record.events(sent)
     done = [e for e in requests(events, api_ids.LOCO_SET_FSM_ID, kind="done") if fsm_of(e) == FsmId.START]
     assert done and done[0]["code"] == 0, "the robot did not answer SetFsmId(500) with 0"
     assert not [e for e in states(events) if e["fsm"] == FsmId.START], "the robot did start"
-    assert answered - sent >= 1.0
+    assert answered - sent >= OUTCOME_TIMEOUT_S
+    stack.set_faults({})
 
 
-def test_an_estop_preempts_a_command_waiting_for_its_outcome_and_is_not_delayed_by_it(stack_factory) -> None:
-    stack = stack_factory(faults={"ignore_fsm_ids": [int(FsmId.START)]}, node_params=("loco_outcome_timeout_s:=10.0",))
-    assert stack.set_mode("high_level").success
-    assert wait_until(lambda: _standing(stack), 15.0)
+def test_an_estop_preempts_a_command_waiting_for_its_outcome_and_is_not_delayed_by_it(stack) -> None:
+    _stand_still(stack)
+    stack.set_faults({"ignore_fsm_ids": [int(FsmId.START)]})
     answers: list = []
     waiter = threading.Thread(target=lambda: answers.append((stack.loco("start"), time.monotonic())))
     sent = time.monotonic()

@@ -1,0 +1,136 @@
+"""odom and /tf follow the robot's own estimate, and Moves the robot acknowledges without walking are reported.
+
+Judged against the sim's record of what it published on rt/lf/odommodestate (the ``odom`` event: the estimate
+and the truth beside it). The sim's estimator drifts from the truth on purpose (larger here than by default),
+so agreeing with the estimate within 1 cm and 1 degree while the truth is farther shows the node relays the
+robot's estimate, not something of its own.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import Odometry
+
+from g1_mode_manager.protocol import api_ids
+from support.mode_manager import wait_until
+from support.sim_record import of_kind, requests
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+tf2_msgs = pytest.importorskip("tf2_msgs.msg")
+
+#: The estimator's errors for this file: 5 cm per metre walked, 2 % of the turns (the sim's defaults: 1 cm, 0.2 %).
+DRIFT = {"odom_drift": {"xy_per_m": 0.05, "xy_mps": 0.0, "yaw_per_rad": 0.02}, "odom_noise_m": 0.0}
+
+
+def _yaw(q) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def _angle(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class Listener:
+    """odom, /tf and /diagnostics as the test's client receives them, with their arrival times."""
+
+    def __init__(self, stack) -> None:
+        self.odom: list[tuple[float, Odometry]] = []
+        self.tf: list = []
+        self.diagnostics: list[DiagnosticArray] = []
+        self._lock = threading.Lock()
+        node = stack.ros.node
+        node.create_subscription(Odometry, "/odom", lambda m: self._add(self.odom, (time.monotonic(), m)), 50)
+        node.create_subscription(tf2_msgs.TFMessage, "/tf", lambda m: self._add(self.tf, m), 100)
+        node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: self._add(self.diagnostics, m), 10)
+
+    def _add(self, into: list, item) -> None:
+        with self._lock:
+            into.append(item)
+
+    def status(self, name: str) -> str | None:
+        with self._lock:
+            for array in reversed(self.diagnostics):
+                for s in array.status:
+                    if s.name == f"g1_mode_manager: {name}":
+                        return s.message
+        return None
+
+
+@pytest.fixture(scope="module")
+def stack(module_stack_factory):
+    return module_stack_factory(faults=DRIFT, node_params=("odom_rate_hz:=20.0", "not_walking_after_s:=1.0"))
+
+
+@pytest.fixture(scope="module")
+def heard(stack) -> Listener:
+    return Listener(stack)
+
+
+def test_odom_and_tf_follow_the_robots_estimate_over_a_walk_and_a_turn(stack, heard) -> None:
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    assert wait_until(lambda: heard.odom, 10.0), "no odom from the node in HIGH_LEVEL"
+    x0, _y0, _z0 = stack.position()
+    stack.drive(0.6, 4.5)  # about 2 m forward
+    stack.drive(0.0, 2.5, wz=0.8)  # about 90 degrees
+    assert wait_until(lambda: stack.horizontal_speed() < 0.05, 10.0)
+    time.sleep(0.5)  # standing: the estimate no longer moves
+    walked = abs(stack.position()[0] - x0)
+
+    published = of_kind(stack.record.events(), "odom")
+    assert published, "the sim's record holds no odometry"
+    est = published[-1]
+    _, last = heard.odom[-1]
+    p = last.pose.pose
+    dx, dy = p.position.x - est["x"], p.position.y - est["y"]
+    dyaw = math.degrees(_angle(_yaw(p.orientation) - est["yaw"]))
+    truth_off = math.hypot(est["x"] - est["true_x"], est["y"] - est["true_y"])
+    turned = math.degrees(_angle(est["true_yaw"] - published[0]["true_yaw"]))
+    print(f"walked {walked:.2f} m, turned {turned:.0f} deg; node odom - robot estimate: {100 * math.hypot(dx, dy):.2f} "
+          f"cm, {dyaw:.2f} deg; robot estimate - truth: {100 * truth_off:.1f} cm")
+    assert walked > 1.5 and abs(turned) > 60.0, "the robot did not walk and turn as commanded"
+    assert math.hypot(dx, dy) < 0.01 and abs(dyaw) < 1.0
+    assert truth_off > 0.03, "the estimate is the truth: the test could not tell them apart"
+    assert (last.header.frame_id, last.child_frame_id) == ("odom", "pelvis")
+
+    t = heard.tf[-1].transforms[0]
+    assert (t.header.frame_id, t.child_frame_id) == ("odom", "pelvis")
+    assert math.hypot(t.transform.translation.x - est["x"], t.transform.translation.y - est["y"]) < 0.01
+    assert wait_until(lambda: (heard.status("odometry") or "").startswith("publishing odom"), 5.0)
+
+
+def test_moves_acknowledged_by_a_robot_that_does_not_walk_are_reported(stack, heard) -> None:
+    stack.set_gantry(True)  # hung up: the feet step in the air, the robot goes nowhere
+    assert stack.set_mode("high_level").success
+    r = stack.loco("start")
+    assert r.success, r.message
+    since = time.monotonic()
+    stack.drive(0.5, 2.5)
+    acknowledged = [e for e in requests(stack.record.events(since), api_ids.LOCO_SET_VELOCITY, kind="done")
+                    if e["code"] == 0]  # fmt: skip
+    assert len(acknowledged) > 10, "the robot did not acknowledge the Moves"
+    warnings = [w for m in stack.modes()[-5:] for w in m.warnings]
+    assert wait_until(lambda: any("Moves acknowledged, robot not walking" in w
+                                  for m in stack.modes()[-3:] for w in m.warnings), 3.0), warnings
+    status = heard.status("walking") or ""
+    assert "Moves acknowledged, robot not walking: is it in a walking fsm?" in status, status
+    assert wait_until(lambda: not any("not walking" in w for m in stack.modes()[-1:] for w in m.warnings), 5.0), (
+        "the warning outlived the Moves")
+    stack.set_gantry(False)
+
+
+def test_low_level_stops_odom_and_the_diagnostics_say_why(stack, heard) -> None:
+    stack.set_gantry(True)  # LOW_LEVEL leaves the robot limp
+    assert stack.set_mode("low_level").success
+    entered = time.monotonic()
+    assert wait_until(lambda: "LOW_LEVEL" in (heard.status("odometry") or ""), 5.0), heard.status("odometry")
+    time.sleep(1.0)
+    late = [t for t, _ in heard.odom if t > entered + 0.2]
+    assert not late, f"{len(late)} odom messages in LOW_LEVEL"
+    assert not [e for e in of_kind(stack.record.events(entered + 0.1), "odom")], "the robot published odometry"
