@@ -38,7 +38,7 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--domain", type=int, help="Unitree SDK2 DDS domain id (parameter dds_domain)")
     p.add_argument("--interface", help="network interface of the DDS domain (parameter network_interface)")
     p.add_argument("--faults", help="faults JSON (parameter faults)")
-    p.add_argument("--no-ros-publish", action="store_true", help="do not publish /joint_states, /odom, /clock")
+    p.add_argument("--no-ros-publish", action="store_true", help="do not publish joint_states, ~/odom, /clock")
     p.add_argument("--assets", help="simulation assets folder (default: the installed ones)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random numbers")
     p.add_argument("--record", help="append every request, frame and state change the robot saw to this JSONL file")
