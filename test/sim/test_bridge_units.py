@@ -187,6 +187,35 @@ def test_delay_ranges_draw_a_delay_per_request_replayably() -> None:
     assert parse_faults(text).to_json()["delay_s"] == {"1003": [0.5, 3.0], "1002": 2.0}
 
 
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [('{"ignore_fsm_ids": 500}', "ignore_fsm_ids must be a list of fsm ids"),
+     ('{"ignore_fsm_ids": ["500"]}', "an fsm id must be an integer >= 0, got '500'"),
+     ('{"ignore_fsm_ids": [-1]}', "got -1"), ('{"ignore_fsm_ids": [true]}', "got True"),
+     ('{"ignore_fsm_ids": [500.0]}', "got 500.0")],
+)  # fmt: skip
+def test_ignore_fsm_ids_refused_with_a_reason(text: str, why: str) -> None:
+    faults = Faults(parse_faults('{"ignore_fsm_ids": [501]}'))
+    with pytest.raises(FaultConfigError, match=re.escape(why)):
+        faults.set_json(text)
+    assert faults.ignores_fsm(501) and not faults.ignores_fsm(500)
+
+
+def test_ignored_fsm_ids_answer_ok_and_leave_the_robot_alone() -> None:
+    robot = StandIn()
+    faults = Faults(parse_faults('{"ignore_fsm_ids": [500, 0]}'))
+    assert faults.config.to_json()["ignore_fsm_ids"] == [0, 500]
+    assert parse_faults(json.dumps(faults.config.to_json())) == faults.config
+    s = _server(robot, faults)
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 500}') == (api.OK, "")
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 0}') == (api.OK, "")
+    assert robot.calls == []
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 501}') == (api.OK, "")
+    assert robot.calls == [("set_fsm_id", 501)]
+    robot.active = False  # debug mode: the sport service answers nothing but 3203, ignored ids included
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 500}')[0] == api.ERR_SERVER_API_NOT_IMPL
+
+
 def test_damp_fails_budget_is_used_up_and_restarts_on_set() -> None:
     faults = Faults(parse_faults('{"damp_fails": 2}'))
     assert [faults.take_damp_failure() for _ in range(3)] == [True, True, False]

@@ -8,6 +8,7 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "error": {"7101": 3104},     # answer this code without handling the request
      "pause_state": true,         # stop publishing every state topic (the sim keeps running)
      "damp_fails": 2,             # the next 2 SetFsmId(1) answer 3104 and do not damp
+     "ignore_fsm_ids": [500],     # SetFsmId of these ids answers 0 and does nothing (a firmware quirk)
      "seed": 7,                   # seed of the per-request delays (so a chaos scenario can be replayed)
      # the body, for a supervisor's checks:
      "motor_temperature": {"3": [90, 130]},   # report motor 3 at casing 90 C, winding 130 C while set
@@ -15,6 +16,9 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "remote_keys": ["L2", "B"],  # these keys held on the operator's remote while set
      "push": {"force": 150, "direction": [1, 0], "duration": 0.3},  # shove the pelvis, once per setting
      "freeze_lowstate": true}     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
+
+``ignore_fsm_ids`` is what users report of firmware 1.5.3: Start (SetFsmId 500) answers 0 from some states and
+the robot stays where it was, while 501 works; a client that trusts the code believes it walks.
 
 Every key is optional; a new configuration replaces the old one as a whole. ``push`` acts once each time
 a configuration holding it is set (its direction: [x, y] in the world frame, or an angle in rad from +x
@@ -40,7 +44,7 @@ from g1_mode_manager.protocol.remote import KEY_NAMES, UnknownKeyError, key_mask
 DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
 _KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed", "motor_temperature",
-                   "battery_soc", "remote_keys", "push", "freeze_lowstate"})
+                   "battery_soc", "remote_keys", "push", "freeze_lowstate", "ignore_fsm_ids"})
 #: Bounds of the injected values: what MotorState_'s int16 could carry sensibly, a push a person could give.
 TEMPERATURE_RANGE_C: Final = (-40.0, 200.0)
 PUSH_MAX_N: Final = 2000.0
@@ -82,6 +86,7 @@ class FaultConfig:
     remote_keys: frozenset[str] = frozenset()
     push: Push | None = None
     freeze_lowstate: bool = False
+    ignore_fsm_ids: frozenset[int] = frozenset()
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -96,6 +101,7 @@ class FaultConfig:
             "remote_keys": sorted(self.remote_keys, key=KEY_NAMES.index),
             "push": None if self.push is None else self.push.to_json(),
             "freeze_lowstate": self.freeze_lowstate,
+            "ignore_fsm_ids": sorted(self.ignore_fsm_ids),
         }
 
 
@@ -178,7 +184,17 @@ def parse_faults(text: str) -> FaultConfig:
     return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed,
                        motor_temperature=MappingProxyType(_motor_temperature(raw.get("motor_temperature", {}))),
                        battery_soc=_battery_soc(raw.get("battery_soc")), remote_keys=_remote_keys(raw.get("remote_keys", [])),
-                       push=_push(raw.get("push")), freeze_lowstate=freeze)  # fmt: skip
+                       push=_push(raw.get("push")), freeze_lowstate=freeze,
+                       ignore_fsm_ids=_fsm_ids(raw.get("ignore_fsm_ids", []), "ignore_fsm_ids"))  # fmt: skip
+
+
+def _fsm_ids(raw: Any, where: str) -> frozenset[int]:
+    if not isinstance(raw, list):
+        raise FaultConfigError(f"{where} must be a list of fsm ids (integers >= 0, e.g. [500]), got {raw!r}")
+    for v in raw:
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise FaultConfigError(f"{where}: an fsm id must be an integer >= 0, got {v!r}")
+    return frozenset(raw)
 
 
 def _motor_temperature(raw: Any) -> dict[int, tuple[float, float]]:
@@ -293,6 +309,10 @@ class Faults:
 
     def error_code(self, api_id: int) -> int | None:
         return self._config.error.get(api_id)
+
+    def ignores_fsm(self, fsm_id: int) -> bool:
+        """SetFsmId(fsm_id) must answer 0 and do nothing."""
+        return fsm_id in self._config.ignore_fsm_ids
 
     @property
     def state_paused(self) -> bool:
