@@ -293,7 +293,10 @@ def test_motion_switcher_handlers() -> None:
 # --- rt/lowcmd and rt/arm_sdk frames ---------------------------------------------------------------
 
 
-def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weight: float = 1.0) -> LowCmd_:
+def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weight: float = 1.0,
+           crc: int | None = None) -> LowCmd_:  # fmt: skip
+    """A frame with a good CRC, a wrong one (``good_crc=False``) or the given crc field (0: none, as Unitree's C++
+    arm_sdk example sends)."""
     msg = unitree_hg_msg_dds__LowCmd_()
     msg.mode_machine = mode_machine
     for i in range(29):
@@ -301,38 +304,47 @@ def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weigh
         msg.motor_cmd[i].q = 0.01 * i
         msg.motor_cmd[i].kp = 40.0
     msg.motor_cmd[29].q = weight
-    msg.crc = CRC().Crc(msg) ^ (0 if good_crc else 1)
+    msg.crc = CRC().Crc(msg) ^ (0 if good_crc else 1) if crc is None else crc
     return msg
 
 
 def test_lowcmd_checks_crc_mode_machine_and_debug_mode() -> None:
     robot = StandIn(active=False)
-    intake = commands.CommandIntake(robot)
+    seen: list[tuple[Any, ...]] = []
+    intake = commands.CommandIntake(robot, on_frame=lambda *a: seen.append(a))
     assert intake.on_lowcmd(_frame(good_crc=False)) == commands.BAD_CRC
     assert intake.on_lowcmd(_frame(mode_machine=4)) == commands.BAD_MODE_MACHINE
     assert intake.on_lowcmd(_frame()) is None
     assert intake.on_lowcmd(_frame(mode=0)) is None
+    assert intake.on_lowcmd(_frame(crc=0)) == commands.BAD_CRC  # rt/lowcmd has no "no CRC"
     robot.active = True
     assert intake.on_lowcmd(_frame()) == commands.NOT_DEBUG_MODE
     applied = [c for c in robot.calls if c[0] == "lowcmd"]
     assert len(applied) == 2 and applied[0][1][1].all() and not applied[1][1][1].any()
     assert np.allclose(applied[0][1][0], 0.01 * np.arange(29), atol=1e-6)
-    assert intake.counts()["lowcmd"] == {"received": 5, "accepted": 2, "bad_crc": 1, "bad_mode_machine": 1,
+    assert intake.counts()["lowcmd"] == {"received": 6, "accepted": 2, "bad_crc": 2, "bad_mode_machine": 1,
                                          "motors_disabled": 1, "not_debug_mode": 1}  # fmt: skip
+    assert [a[5] for a in seen] == ["wrong", "ok", "ok", "ok", "none", "ok"]
+    assert seen[0][4] == CRC().Crc(_frame()) and seen[4][4] == seen[0][4]  # the key: the content's CRC, not the field
 
 
-def test_arm_sdk_checks_crc_and_standing_not_mode_machine() -> None:
+def test_arm_sdk_takes_any_crc_and_checks_standing_not_mode_machine() -> None:
     robot = StandIn()
-    intake = commands.CommandIntake(robot)
-    assert intake.on_arm_sdk(_frame(good_crc=False)) == commands.BAD_CRC
+    seen: list[tuple[Any, ...]] = []
+    intake = commands.CommandIntake(robot, on_frame=lambda *a: seen.append(a))
+    assert intake.on_arm_sdk(_frame(crc=0)) is None  # Unitree's C++ example: no CRC at all
+    assert intake.on_arm_sdk(_frame(good_crc=False)) is None  # the field is not looked at
     assert intake.on_arm_sdk(_frame(mode_machine=0, mode=0, weight=1.7)) is None
     robot.fsm_id = 1
-    assert intake.on_arm_sdk(_frame()) == commands.NOT_STANDING
-    (call,) = [c for c in robot.calls if c[0] == "arm_sdk"]
-    q, weight = call[1]
+    assert intake.on_arm_sdk(_frame(crc=0)) == commands.NOT_STANDING
+    calls = [c for c in robot.calls if c[0] == "arm_sdk"]
+    assert len(calls) == 3
+    q, weight = calls[2][1]
     assert weight == 1.0 and q.shape == (17,) and q[0] == pytest.approx(0.12)
     counts = intake.counts()["arm_sdk"]
-    assert counts["mode_machine_not_5"] == 1 and counts["bad_crc"] == 1 and counts["not_standing"] == 1
+    assert counts == {"received": 4, "accepted": 3, "crc0": 2, "crc_wrong": 1, "mode_machine_not_5": 1,
+                      "not_standing": 1}  # fmt: skip
+    assert [(a[1], a[5]) for a in seen] == [(None, "none"), (None, "wrong"), (None, "ok"), ("not_standing", "none")]
 
 
 def test_non_finite_frames_are_ignored() -> None:

@@ -264,9 +264,9 @@ class Bridge:
         self.record.event("done", svc=service, api=api_id, p=parameter, code=code)
         self._record_state()
 
-    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, crc: int) -> None:
-        at = self.subscribers.arrival(topic, crc) if hasattr(self, "subscribers") else None
-        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max)
+    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, content_crc: int, crc: str) -> None:
+        at = self.subscribers.arrival(topic, content_crc) if hasattr(self, "subscribers") else None
+        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc)
 
     def _body(self, sim_time: float, s: Any, report: Any) -> None:
         """The record's ``body`` event (every 10 ms of sim time): what a body supervisor's checks read."""

@@ -7,7 +7,8 @@ of the machine, so a test can compare it with the moment it sent something). Kin
   the sim's Cyclone delivered it (see arrivals.py), so lines are not always in ``t`` order.
 * ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
 * ``frame``: an rt/lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
-  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded); ``t`` as for ``req``.
+  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok",
+  "none" = left 0, "wrong"; rt/lowcmd needs "ok", rt/arm_sdk takes all three); ``t`` as for ``req``.
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
   ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``.
 * ``reset``: the sim was reset to its boot state (a sim-only status call).

@@ -21,7 +21,7 @@ from g1_mode_manager.protocol.unitree_sdk_internals import (
     publisher_channel,
     subscriber_channel,
 )
-from g1_sim.bridge.arrivals import Arrivals, last_uint32
+from g1_sim.bridge.arrivals import Arrivals, lowcmd_content_crc
 from g1_sim.bridge.body_report import BodyReport
 from g1_sim.bridge.commands import CommandIntake
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
@@ -140,13 +140,14 @@ class CommandSubscribers:
             self._subs.append(sub)
             if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
                 reader = channel_datareader(subscriber_channel(sub))
-                stamps = Arrivals(reader, last_uint32, window=2 * COMMAND_QUEUE_LEN)
+                stamps = Arrivals(reader, lowcmd_content_crc, window=2 * COMMAND_QUEUE_LEN)
                 self._arrivals[topic.removeprefix("rt/")] = stamps
 
-    def arrival(self, topic: str, crc: int) -> float | None:
-        """When the frame with this crc reached the process (``topic`` as the record names it), or None."""
+    def arrival(self, topic: str, content_crc: int) -> float | None:
+        """When the frame whose content has this CRC reached the process (``topic`` as the record names it),
+        or None (see arrivals.py: the key is never the frame's own crc field)."""
         arrivals = self._arrivals.get(topic)
-        return arrivals.pop(crc) if arrivals is not None else None
+        return arrivals.pop(content_crc) if arrivals is not None else None
 
 
 def _logged(topic: str, handler: Callable[[LowCmd_], object]) -> Callable[[LowCmd_], None]:
