@@ -367,6 +367,15 @@ def test_lowstate_packing_matches_cyclonedds_and_sdk_crc() -> None:
     assert decoded.mode_machine == 5 and decoded.tick == 42
     assert decoded.motor_state[28].q == pytest.approx(1.0) and decoded.motor_state[28].tau_est == pytest.approx(3.0)
     assert decoded.crc == CRC().Crc(decoded)
+    # motor mode and supply voltage: given once, kept until they change; the spare slots 29..34 stay zero
+    mode = np.ones(29, dtype=np.uint8)
+    mode[[0, 7]] = 0
+    packer.pack(q, q, q, np.array([1, 0, 0, 0]), np.ones(3), np.ones(3), np.zeros(3), 43, motor_mode=mode, vol=52.5)
+    packer.pack(q, q, q, np.array([1, 0, 0, 0]), np.ones(3), np.ones(3), np.zeros(3), 44)
+    decoded = LowState_.deserialize(packer.frame_bytes())
+    assert [m.mode for m in decoded.motor_state] == [0, 1, 1, 1, 1, 1, 1, 0] + [1] * 21 + [0] * 6
+    assert [m.vol for m in decoded.motor_state] == [52.5] * 29 + [0.0] * 6
+    assert decoded.crc == CRC().Crc(decoded)
 
 
 @pytest.mark.parametrize("words", [1, 2, 250, 522])

@@ -48,6 +48,7 @@ class LowStateLike(Protocol):
     imu_accelerometer: np.ndarray
     imu_rpy: np.ndarray
     tick: int
+    motor_mode: np.ndarray
 
 
 class StatePublishers:
@@ -77,9 +78,12 @@ class StatePublishers:
         self._counts: Counter[str] = Counter()
 
     def publish_lowstate(self, s: LowStateLike, body: BodyReport, *, also_lf: bool = False) -> None:
-        """rt/lowstate, and the same frame on rt/lf/lowstate if ``also_lf`` (the robot's decimated copy)."""
+        """rt/lowstate, and the same frame on rt/lf/lowstate if ``also_lf`` (the robot's decimated copy).
+
+        Every motor's ``vol`` is the battery pack's voltage: the motors hang on the pack's bus."""
         msg = self._packer.pack(s.q, s.dq, s.tau_est, s.imu_quaternion, s.imu_gyroscope, s.imu_accelerometer,
-                                s.imu_rpy, s.tick, body.temperature, body.remote)  # fmt: skip
+                                s.imu_rpy, s.tick, body.temperature, body.remote, s.motor_mode,
+                                body.battery.pack_v)  # fmt: skip
         ok = self._lowstate.Write(msg)
         self._bump("lowstate" if ok else "lowstate_write_errors")
         if also_lf:

@@ -96,6 +96,9 @@ def _posture(hip: float, knee: float, ankle: float) -> np.ndarray:
 SQUAT_POSE: Final = _posture(-1.0, 1.87, -0.87)
 SIT_POSE: Final = _posture(-1.6, 2.4, -0.8)
 
+_ALL_ENABLED: Final = np.ones(NUM_JOINTS, dtype=np.uint8)
+_ALL_ENABLED.flags.writeable = False
+
 _models: dict[Path, G1Model] = {}
 _models_lock = threading.Lock()
 
@@ -549,7 +552,16 @@ class SimG1:
                 q=self._s.q.copy(), dq=self._s.dq.copy(), tau_est=d.actuator_force[:NUM_JOINTS].copy(),
                 imu_quaternion=quat, imu_gyroscope=d.sensordata[ga : ga + 3].copy(),
                 imu_accelerometer=d.sensordata[aa : aa + 3].copy(), imu_rpy=quat_to_rpy(quat),
-                tick=round(d.time * 1000.0), mode_machine=MODE_MACHINE_G1_29DOF)
+                tick=round(d.time * 1000.0), mode_machine=MODE_MACHINE_G1_29DOF, motor_mode=self._motor_mode())
+
+    def _motor_mode(self) -> np.ndarray:
+        """MotorState_.mode: 1 while a motor is enabled, as MotorCmd_.mode means it ("1:Enable, 0:Disable" in
+        Unitree's low-level examples). The built-in controller keeps every motor enabled, damping and zero
+        torque included (they command kp = 0, not a disabled driver); in debug mode each motor is what the
+        last rt/lowcmd frame asked, disabled until one arrives."""
+        if self._service:
+            return _ALL_ENABLED
+        return self._lowlevel.enabled.astype(np.uint8)
 
     def sport_state(self) -> tuple[int, int]:
         """(fsm_id, fsm_mode) for rt/sportmodestate; (0, 0) in debug mode."""

@@ -22,6 +22,7 @@ class LowStateSnapshot:
     imu_rpy: np.ndarray  # roll, pitch, yaw in rad
     tick: int  # ms of sim time since boot
     mode_machine: int
+    motor_mode: np.ndarray  # 29, uint8: 1 = the motor is enabled (servo on), 0 = disabled (no torque)
 
 
 @dataclass(frozen=True)
