@@ -1,8 +1,14 @@
 """The sim thread: step the robot one physics step at a time and publish on the robot's schedule.
 
-rt/lowstate goes out at 500 Hz of sim time, rt/lf/lowstate (the same frames) at 20 Hz, rt/sportmodestate
-and the ROS topics at 50 Hz, rt/lf/bmsstate at BMSSTATE_RATE_HZ, all from this thread right after the
-step they describe (lowstate packing is cheap, see lowstate_codec). Every BODY_PERIOD_S of sim time the
+rt/lowstate goes out at 500 Hz of sim time, rt/lf/lowstate (the same frames) at 20 Hz, rt/secondary_imu
+with every rt/lowstate frame, rt/sportmodestate and the ROS topics at 50 Hz, rt/lf/bmsstate at
+BMSSTATE_RATE_HZ, all from this thread right after the step they describe (packing is cheap, see
+lowstate_codec and imu_codec).
+
+rt/secondary_imu's rate on the robot is not documented. 500 Hz: the torso IMU sits on the same body bus as
+the pelvis IMU that rt/lowstate carries at 500 Hz, and Unitree's ankle example reads both side by side in
+its 500 Hz control loop; it goes on when rt/lowstate alone is frozen (a separate topic), and stops with
+``pause_state``. Every BODY_PERIOD_S of sim time the
 body's report (temperatures, battery, remote, with injected readings laid over: body_report) is taken
 afresh and handed to ``on_body`` (the bridge's record).
 """
@@ -37,6 +43,7 @@ class SteppableRobot(Protocol):
 
     def step(self, n: int = 1) -> None: ...
     def lowstate(self) -> Any: ...
+    def torso_imu(self) -> Any: ...
     def sport_state(self) -> tuple[int, int]: ...
     def arm_task(self) -> tuple[int, float]: ...
     def base_pose(self) -> Any: ...
@@ -113,6 +120,8 @@ class SimLoop:
             if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
                 s = robot.lowstate()
                 pub.publish_lowstate(s, self.body, also_lf=k % self._lf_every == 0)
+            if k % self._low_every == 0 and not paused:
+                pub.publish_secondary_imu(robot.torso_imu())
             if k % self._sport_every == 0 and not paused:
                 pub.publish_sportmodestate(*robot.sport_state(), *robot.arm_task())
             if k % self._bms_every == 0 and not paused:

@@ -1,5 +1,5 @@
-"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate and rt/lf/bmsstate out,
-rt/lowcmd and rt/arm_sdk in."""
+"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate, rt/lf/bmsstate and
+rt/secondary_imu out, rt/lowcmd and rt/arm_sdk in."""
 
 from __future__ import annotations
 
@@ -14,13 +14,16 @@ from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_
 
 from g1_mode_manager.protocol import topics
-from g1_mode_manager.protocol.idl import BmsState_, LowCmd_, LowState_, SportModeState_
+from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, SportModeState_
 from g1_mode_manager.protocol.unitree_sdk_internals import (
     channel_datareader,
+    channel_datawriter,
     channel_matched_readers,
     publisher_channel,
     subscriber_channel,
 )
+from g1_sim.bridge import imu_codec
 from g1_sim.bridge.arrivals import Arrivals, lowcmd_content_crc
 from g1_sim.bridge.body_report import BodyReport
 from g1_sim.bridge.commands import CommandIntake
@@ -37,6 +40,8 @@ BMS_SOH = 100
 BMS_CYCLE = 12
 #: BmsState_.temperature entries the sim fills (deg C); the rest stay 0.
 BMS_TEMPERATURES_C = (28, 28, 27, 27)
+#: IMUState_.temperature of the torso IMU: no model, 0 like rt/lowstate's IMU.
+TORSO_IMU_TEMPERATURE_C = 0
 
 
 class LowStateLike(Protocol):
@@ -51,9 +56,26 @@ class LowStateLike(Protocol):
     motor_mode: np.ndarray
 
 
+class ImuLike(Protocol):
+    quaternion: np.ndarray
+    gyroscope: np.ndarray
+    accelerometer: np.ndarray
+    rpy: np.ndarray
+
+
+def raw_writer(topic: str, msg_type: type) -> tuple[ChannelPublisher, Any]:
+    """An SDK publisher and its DataWriter, for samples written as ready-made CDR bytes (XCDR1)."""
+    publisher = ChannelPublisher(topic, msg_type)
+    publisher.Init()
+    writer = channel_datawriter(publisher_channel(publisher))
+    if writer_use_version_2(writer):
+        raise RuntimeError(f"the {topic} writer serialises XCDR2; its ready-made samples are XCDR1")
+    return publisher, writer
+
+
 class StatePublishers:
     """Writers of rt/lowstate and rt/lf/lowstate (packed without cyclonedds' slow serialiser),
-    rt/sportmodestate and rt/lf/bmsstate.
+    rt/sportmodestate, rt/lf/bmsstate and rt/secondary_imu (written as ready-made bytes).
 
     ``publish_*`` are called from the sim thread only.
     """
@@ -73,6 +95,8 @@ class StatePublishers:
         self._bms_msg.temperature[: len(BMS_TEMPERATURES_C)] = BMS_TEMPERATURES_C
         self._packer = LowStatePacker()
         self_check(self._packer)
+        imu_codec.self_check()
+        self._imu, self._imu_writer = raw_writer(topics.SECONDARY_IMU, IMUState_)
         self._sport_msg = SportModeState_(fsm_id=0, fsm_mode=0, task_id=0, task_time=0.0)
         self._lock = threading.Lock()
         self._counts: Counter[str] = Counter()
@@ -89,6 +113,12 @@ class StatePublishers:
         if also_lf:
             ok = self._lf_lowstate.Write(msg)
             self._bump("lf_lowstate" if ok else "lf_lowstate_write_errors")
+
+    def publish_secondary_imu(self, imu: ImuLike) -> None:
+        """rt/secondary_imu: the torso IMU (unitree_hg IMUState_)."""
+        data = imu_codec.encode_imu(imu.quaternion, imu.gyroscope, imu.accelerometer, imu.rpy, TORSO_IMU_TEMPERATURE_C)
+        ok = write_serialized(self._imu_writer, data)
+        self._bump("secondary_imu" if ok else "secondary_imu_write_errors")
 
     def publish_bmsstate(self, body: BodyReport) -> None:
         """rt/lf/bmsstate: soc %, pack voltage (mV, bmsvoltage[0]), the 13 cells (mV), current (mA)."""
@@ -120,7 +150,7 @@ class StatePublishers:
     def readers(self) -> dict[str, int]:
         """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""
         writers = {"lowstate": self._lowstate, "lf_lowstate": self._lf_lowstate, "sportmodestate": self._sport,
-                   "bmsstate": self._bms}  # fmt: skip
+                   "bmsstate": self._bms, "secondary_imu": self._imu}  # fmt: skip
         return {name: _matched_readers(w) for name, w in writers.items()}
 
 

@@ -50,7 +50,7 @@ from g1_sim.firmware.arm_tasks import (
     ArmTaskPlayer,
 )
 from g1_sim.firmware.body import Body
-from g1_sim.firmware.state import BasePose, BodySnapshot, LowStateSnapshot, quat_to_rpy, tilt_rad
+from g1_sim.firmware.state import BasePose, BodySnapshot, ImuSnapshot, LowStateSnapshot, quat_to_rpy, tilt_rad
 from g1_sim.physics.battery import START_SOC
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
@@ -562,6 +562,16 @@ class SimG1:
         if self._service:
             return _ALL_ENABLED
         return self._lowlevel.enabled.astype(np.uint8)
+
+    def torso_imu(self) -> ImuSnapshot:
+        """The torso IMU (rt/secondary_imu): the model's sensors on torso_link, orientation of their site."""
+        with self._lock:
+            d, g1 = self._data, self._g1
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, d.site_xmat[g1.torso_imu_site])
+            ga, aa = g1.torso_gyro_adr, g1.torso_accel_adr
+            return ImuSnapshot(quaternion=quat, gyroscope=d.sensordata[ga : ga + 3].copy(),
+                               accelerometer=d.sensordata[aa : aa + 3].copy(), rpy=quat_to_rpy(quat))  # fmt: skip
 
     def sport_state(self) -> tuple[int, int]:
         """(fsm_id, fsm_mode) for rt/sportmodestate; (0, 0) in debug mode."""

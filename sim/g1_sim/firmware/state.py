@@ -26,6 +26,16 @@ class LowStateSnapshot:
 
 
 @dataclass(frozen=True)
+class ImuSnapshot:
+    """What an IMU reports (unitree_hg IMUState_): orientation, rates and specific force in its own frame."""
+
+    quaternion: np.ndarray  # w x y z
+    gyroscope: np.ndarray  # rad/s
+    accelerometer: np.ndarray  # m/s^2 (specific force: +9.81 z when at rest upright)
+    rpy: np.ndarray  # roll, pitch, yaw in rad
+
+
+@dataclass(frozen=True)
 class BasePose:
     """Pelvis pose and twist in the world frame (for odometry and tests)."""
 
