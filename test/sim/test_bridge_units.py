@@ -201,6 +201,33 @@ def test_ignore_fsm_ids_refused_with_a_reason(text: str, why: str) -> None:
     assert faults.ignores_fsm(501) and not faults.ignores_fsm(500)
 
 
+def test_odometry_errors_have_non_zero_defaults_and_parse_partly() -> None:
+    default = parse_faults("").odom
+    assert default.xy_per_m > 0 and default.xy_mps > 0 and default.yaw_per_rad > 0 and default.noise_m > 0
+    c = parse_faults('{"odom_drift": {"xy_per_m": 0.05, "yaw_per_rad": -0.01}, "odom_noise_m": 0}')
+    assert (c.odom.xy_per_m, c.odom.yaw_per_rad, c.odom.noise_m) == (0.05, -0.01, 0.0)
+    assert c.odom.xy_mps == default.xy_mps  # left out: its default
+    assert parse_faults(json.dumps(c.to_json())) == c
+    exact = parse_faults('{"odom_drift": {"xy_per_m": 0, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}').odom
+    assert (exact.xy_per_m, exact.xy_mps, exact.yaw_per_rad, exact.noise_m) == (0, 0, 0, 0)
+
+
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [('{"odom_drift": 0.01}', "odom_drift must be an object"),
+     ('{"odom_drift": {"xy": 0.01}}', "odom_drift: unknown keys ['xy']"),
+     ('{"odom_drift": {"xy_mps": -0.1}}', "odom_drift.xy_mps must be within 0..1"),
+     ('{"odom_drift": {"xy_per_m": 2}}', "odom_drift.xy_per_m must be within -1..1"),
+     ('{"odom_drift": {"yaw_per_rad": "0.1"}}', "odom_drift.yaw_per_rad: expected a number"),
+     ('{"odom_noise_m": -0.001}', "odom_noise_m must be within 0..1 m"), ('{"odom_noise_m": true}', "odom_noise_m")],
+)  # fmt: skip
+def test_odometry_errors_refused_with_a_reason(text: str, why: str) -> None:
+    faults = Faults(parse_faults('{"odom_noise_m": 0.5}'))
+    with pytest.raises(FaultConfigError, match=re.escape(why)):
+        faults.set_json(text)
+    assert faults.config.odom.noise_m == 0.5
+
+
 def test_ignored_fsm_ids_answer_ok_and_leave_the_robot_alone() -> None:
     robot = StandIn()
     faults = Faults(parse_faults('{"ignore_fsm_ids": [500, 0]}'))

@@ -8,9 +8,8 @@ frames a second. A self-check at start-up compares the bytes with cyclonedds' ow
 from __future__ import annotations
 
 import struct
+from collections.abc import Sequence
 from typing import Final
-
-import numpy as np
 
 from g1_mode_manager.protocol.idl import IMUState_
 
@@ -20,8 +19,8 @@ _HEADER: Final = b"\x00\x01\x00\x00"  # CDR (XCDR1), little endian
 _BODY: Final = struct.Struct("<4f3f3f3fh2x")
 
 
-def encode_imu(quaternion: np.ndarray, gyroscope: np.ndarray, accelerometer: np.ndarray, rpy: np.ndarray,
-               temperature: int = 0) -> bytes:  # fmt: skip
+def encode_imu(quaternion: Sequence[float], gyroscope: Sequence[float], accelerometer: Sequence[float],
+               rpy: Sequence[float], temperature: int = 0) -> bytes:  # fmt: skip
     """The serialised IMUState_ (encapsulation header included)."""
     return _HEADER + _BODY.pack(*quaternion, *gyroscope, *accelerometer, *rpy, temperature)
 
@@ -29,7 +28,7 @@ def encode_imu(quaternion: np.ndarray, gyroscope: np.ndarray, accelerometer: np.
 def self_check() -> None:
     """Encode known values and check cyclonedds writes the same bytes and reads them back."""
     q, g, a, r = [0.5, -0.5, 0.25, 0.125], [1.0, -2.0, 0.5], [0.25, 0.0, 9.75], [0.1875, -0.375, 3.0]
-    ours = encode_imu(np.array(q), np.array(g), np.array(a), np.array(r), -7)
+    ours = encode_imu(q, g, a, r, -7)
     theirs = IMUState_(quaternion=q, gyroscope=g, accelerometer=a, rpy=r, temperature=-7).serialize(use_version_2=False)
     theirs = theirs.ljust((len(theirs) + 3) & ~3, b"\0")  # as DataWriter.write pads it
     decoded = IMUState_.deserialize(ours)

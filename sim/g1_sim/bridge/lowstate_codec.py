@@ -86,6 +86,7 @@ class LowStatePacker:
         self._last_temperature: np.ndarray | None = None
         self._last_remote: bytes | None = None
         self._last_mode = np.zeros(NUM_JOINTS, dtype=np.uint8)
+        self._last_mode_given: np.ndarray | None = None
         self._last_vol = 0.0
         self._crc = _view(self._buf, body + _CRC, "<u4", 1, 4)
         self._c_struct = np.zeros(_BODY_SIZE, dtype=np.uint8)  # C layout without the crc word
@@ -110,10 +111,12 @@ class LowStatePacker:
         if remote is not None and remote is not self._last_remote:
             self._remote[:] = np.frombuffer(remote, dtype=np.uint8)
             self._last_remote = remote
-        if motor_mode is not None and not np.array_equal(motor_mode, self._last_mode):
-            self._mode0[0] = motor_mode[0]
-            self._mode_rest[:] = motor_mode[1:]
-            self._last_mode = np.array(motor_mode, dtype=np.uint8)
+        if motor_mode is not None and motor_mode is not self._last_mode_given:
+            self._last_mode_given = motor_mode  # a robot hands the same array while nothing changes
+            if not np.array_equal(motor_mode, self._last_mode):
+                self._mode0[0] = motor_mode[0]
+                self._mode_rest[:] = motor_mode[1:]
+                self._last_mode = np.array(motor_mode, dtype=np.uint8)
         if vol is not None and vol != self._last_vol:
             self._vol[:] = vol
             self._last_vol = vol

@@ -209,7 +209,8 @@ class Bridge:
         self.intake = CommandIntake(self.robot, on_frame=frame_hook)
         self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
-                            on_body=self._body if self.record.enabled else None)  # fmt: skip
+                            on_body=self._body if self.record.enabled else None,
+                            on_odom=self._odom if self.record.enabled else None)  # fmt: skip
         self._params = p
 
     def start(self) -> None:
@@ -237,6 +238,8 @@ class Bridge:
     def _faults_changed(self, old: Any, new: Any) -> None:
         """Hand the body's injections to the robot (keys held, a push) and record every change."""
         self.robot.set_remote_keys(new.remote_keys)
+        if (new.odom, new.seed) != (old.odom, old.seed):
+            self.robot.set_odometry_errors(new.odom, new.seed)
         if new.push is not None:
             self.robot.push(new.push.force_xy, new.push.duration_s)
         self._record_injections(old, new)
@@ -278,6 +281,16 @@ class Bridge:
                           winding=round(report.hottest_winding_c, 2), casing=round(report.hottest_casing_c, 2),
                           soc=round(report.battery.soc, 3), z=round(z, 4))  # fmt: skip
         self._record_state()  # a change without a request (the remote's Damp) is recorded within 10 ms too
+
+    def _odom(self, sim_time: float, o: Any) -> None:
+        """The record's ``odom`` event (every rt/lf/odommodestate sample): the estimate as published (float32)
+        and the truth."""
+        est = np.array([o.position[0], o.position[1], o.rpy[2], o.velocity[0], o.velocity[1], o.yaw_speed],
+                       dtype=np.float32).tolist()  # fmt: skip
+        x, y, yaw, vx, vy, wz = (round(v, 6) for v in est)
+        self.record.event("odom", st=round(sim_time, 3), x=x, y=y, yaw=yaw, vx=vx, vy=vy, wz=wz,
+                          true_x=round(float(o.true_position[0]), 6), true_y=round(float(o.true_position[1]), 6),
+                          true_yaw=round(float(o.true_yaw), 6))  # fmt: skip
 
     def _record_state(self) -> None:
         robot = self.robot

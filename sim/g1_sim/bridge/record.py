@@ -12,6 +12,11 @@ of the machine, so a test can compare it with the moment it sent something). Kin
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
   ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``.
 * ``reset``: the sim was reset to its boot state (a sim-only status call).
+* ``odom``: every rt/lf/odommodestate sample (20 Hz of sim time while a high-level service is active): ``st``
+  (sim time, the sample's stamp), the estimate as published (float32, rounded to 1e-6): ``x``, ``y`` (m),
+  ``yaw`` (rad, rpy[2]), ``vx``, ``vy`` (m/s, odometry frame), ``wz`` (rad/s, yaw_speed); and the truth:
+  ``true_x``, ``true_y``, ``true_yaw`` (the pelvis in the world frame, which is the odometry frame at the
+  start). ``t`` is when the sample was written.
 
 This is what end-to-end and chaos tests judge by: the robot's side, never the node's belief.
 """

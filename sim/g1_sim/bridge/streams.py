@@ -1,5 +1,5 @@
-"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate, rt/lf/bmsstate and
-rt/secondary_imu out, rt/lowcmd and rt/arm_sdk in."""
+"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate, rt/lf/bmsstate,
+rt/secondary_imu, rt/odommodestate and rt/lf/odommodestate out, rt/lowcmd and rt/arm_sdk in."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
 from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, SportModeState_
+from g1_mode_manager.protocol.odom_fields import OdomFields, OdomModeState_, encode_odom
 from g1_mode_manager.protocol.unitree_sdk_internals import (
     channel_datareader,
     channel_datawriter,
@@ -56,26 +57,52 @@ class LowStateLike(Protocol):
     motor_mode: np.ndarray
 
 
+Vec3 = tuple[float, float, float]
+
+
+class OdomLike(Protocol):
+    position: Vec3
+    velocity: Vec3
+    yaw_speed: float
+    quaternion: tuple[float, float, float, float]
+    gyroscope: Vec3
+    rpy: Vec3
+    body_height: float
+
+
 class ImuLike(Protocol):
-    quaternion: np.ndarray
-    gyroscope: np.ndarray
-    accelerometer: np.ndarray
-    rpy: np.ndarray
+    quaternion: tuple[float, ...]
+    gyroscope: tuple[float, ...]
+    accelerometer: tuple[float, ...]
+    rpy: tuple[float, ...]
 
 
-def raw_writer(topic: str, msg_type: type) -> tuple[ChannelPublisher, Any]:
-    """An SDK publisher and its DataWriter, for samples written as ready-made CDR bytes (XCDR1)."""
-    publisher = ChannelPublisher(topic, msg_type)
-    publisher.Init()
-    writer = channel_datawriter(publisher_channel(publisher))
-    if writer_use_version_2(writer):
-        raise RuntimeError(f"the {topic} writer serialises XCDR2; its ready-made samples are XCDR1")
-    return publisher, writer
+class RawWriter:
+    """One topic written as ready-made CDR bytes (XCDR1): an SDK publisher (discovery, its matched count) and
+    its DataWriter.
+
+    A sample no reader has matched is not handed to DDS: with the SDK's default QoS (volatile durability)
+    DDS would drop it, and in the sim loop the call costs 7-10 us even then, 1000 times a second.
+    """
+
+    def __init__(self, topic: str, msg_type: type) -> None:
+        self.publisher = ChannelPublisher(topic, msg_type)
+        self.publisher.Init()
+        self._channel = publisher_channel(self.publisher)
+        self._writer = channel_datawriter(self._channel)
+        if writer_use_version_2(self._writer):
+            raise RuntimeError(f"the {topic} writer serialises XCDR2; its ready-made samples are XCDR1")
+
+    def write(self, data: bytes) -> bool:
+        """Publish one sample (encapsulation header first); False if DDS refused it."""
+        if channel_matched_readers(self._channel) == 0:
+            return True
+        return write_serialized(self._writer, data)
 
 
 class StatePublishers:
     """Writers of rt/lowstate and rt/lf/lowstate (packed without cyclonedds' slow serialiser),
-    rt/sportmodestate, rt/lf/bmsstate and rt/secondary_imu (written as ready-made bytes).
+    rt/sportmodestate, rt/lf/bmsstate, rt/secondary_imu and both odometry topics (written as ready-made bytes).
 
     ``publish_*`` are called from the sim thread only.
     """
@@ -96,7 +123,9 @@ class StatePublishers:
         self._packer = LowStatePacker()
         self_check(self._packer)
         imu_codec.self_check()
-        self._imu, self._imu_writer = raw_writer(topics.SECONDARY_IMU, IMUState_)
+        self._imu = RawWriter(topics.SECONDARY_IMU, IMUState_)
+        self._odom = RawWriter(topics.ODOMMODESTATE, OdomModeState_)
+        self._lf_odom = RawWriter(topics.LF_ODOMMODESTATE, OdomModeState_)
         self._sport_msg = SportModeState_(fsm_id=0, fsm_mode=0, task_id=0, task_time=0.0)
         self._lock = threading.Lock()
         self._counts: Counter[str] = Counter()
@@ -117,8 +146,20 @@ class StatePublishers:
     def publish_secondary_imu(self, imu: ImuLike) -> None:
         """rt/secondary_imu: the torso IMU (unitree_hg IMUState_)."""
         data = imu_codec.encode_imu(imu.quaternion, imu.gyroscope, imu.accelerometer, imu.rpy, TORSO_IMU_TEMPERATURE_C)
-        ok = write_serialized(self._imu_writer, data)
+        ok = self._imu.write(data)
         self._bump("secondary_imu" if ok else "secondary_imu_write_errors")
+
+    def publish_odom(self, stamp_s: float, o: OdomLike, *, also_lf: bool = False) -> None:
+        """rt/odommodestate (unitree_go SportModeState_, stamped with sim time), and the same sample on
+        rt/lf/odommodestate if ``also_lf``."""
+        data = encode_odom(OdomFields(stamp_s=stamp_s, position=o.position, velocity=o.velocity, yaw_speed=o.yaw_speed,
+                                      quaternion=o.quaternion, gyroscope=o.gyroscope, rpy=o.rpy,
+                                      body_height=o.body_height))  # fmt: skip
+        ok = self._odom.write(data)
+        self._bump("odommodestate" if ok else "odommodestate_write_errors")
+        if also_lf:
+            ok = self._lf_odom.write(data)
+            self._bump("lf_odommodestate" if ok else "lf_odommodestate_write_errors")
 
     def publish_bmsstate(self, body: BodyReport) -> None:
         """rt/lf/bmsstate: soc %, pack voltage (mV, bmsvoltage[0]), the 13 cells (mV), current (mA)."""
@@ -150,7 +191,8 @@ class StatePublishers:
     def readers(self) -> dict[str, int]:
         """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""
         writers = {"lowstate": self._lowstate, "lf_lowstate": self._lf_lowstate, "sportmodestate": self._sport,
-                   "bmsstate": self._bms, "secondary_imu": self._imu}  # fmt: skip
+                   "bmsstate": self._bms, "secondary_imu": self._imu.publisher,
+                   "odommodestate": self._odom.publisher, "lf_odommodestate": self._lf_odom.publisher}  # fmt: skip
         return {name: _matched_readers(w) for name, w in writers.items()}
 
 

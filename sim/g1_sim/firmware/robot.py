@@ -10,6 +10,7 @@ because that is what a user of the sim wants first. ``start_fsm=0``/``1`` boots 
 
 The body around the motors: temperatures and battery (firmware.body), the operator's remote (L2+B damps,
 firmware.rules), and forces from outside on the pelvis: the gantry and pushes (physics.pelvis_forces).
+The state estimator (rt/odommodestate) is firmware.odometry's: the truth with drift and noise.
 """
 
 from __future__ import annotations
@@ -50,7 +51,8 @@ from g1_sim.firmware.arm_tasks import (
     ArmTaskPlayer,
 )
 from g1_sim.firmware.body import Body
-from g1_sim.firmware.state import BasePose, BodySnapshot, ImuSnapshot, LowStateSnapshot, quat_to_rpy, tilt_rad
+from g1_sim.firmware.odometry import OdomErrors, OdomEstimate, Odometer
+from g1_sim.firmware.state import BasePose, BodySnapshot, ImuSnapshot, LowStateSnapshot, quat_to_rpy, rpy_of, tilt_rad
 from g1_sim.physics.battery import START_SOC
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
@@ -148,6 +150,8 @@ class SimG1:
         self._forces.set_gantry(gantry, self._data)
         self._remote: frozenset[str] = frozenset()
         self._remote_damp_held = False
+        self._odometer = Odometer()
+        self._torso_quat = np.empty(4)  # scratch for torso_imu
 
         self._service = ""
         self._silent = False
@@ -292,6 +296,19 @@ class SimG1:
         with self._lock:
             self.counters["pushes"] += 1
             self._forces.push(force_xy, duration_s, self.time)
+
+    def set_odometry_errors(self, errors: OdomErrors, seed: int = 0) -> None:
+        """A fresh estimator with these errors, starting from the truth now."""
+        with self._lock:
+            self._odometer = Odometer(errors, seed)
+
+    def odometry(self) -> OdomEstimate:
+        """The state estimator's output now (rt/odommodestate; the robot publishes it only while a service is
+        active, the estimate itself runs on)."""
+        with self._lock:
+            d = self._data
+            qpos, qvel = d.qpos[:7].tolist(), d.qvel[:6].tolist()  # free joint: world velocity, body rate
+            return self._odometer.update(float(d.time), qpos[0:3], qpos[3:7], qvel[0:3], qvel[3:6])
 
     def body(self) -> BodySnapshot:
         """Motor temperatures, battery and the remote's keys as the firmware has them now."""
@@ -566,12 +583,12 @@ class SimG1:
     def torso_imu(self) -> ImuSnapshot:
         """The torso IMU (rt/secondary_imu): the model's sensors on torso_link, orientation of their site."""
         with self._lock:
-            d, g1 = self._data, self._g1
-            quat = np.empty(4)
+            d, g1, quat = self._data, self._g1, self._torso_quat
             mujoco.mju_mat2Quat(quat, d.site_xmat[g1.torso_imu_site])
             ga, aa = g1.torso_gyro_adr, g1.torso_accel_adr
-            return ImuSnapshot(quaternion=quat, gyroscope=d.sensordata[ga : ga + 3].copy(),
-                               accelerometer=d.sensordata[aa : aa + 3].copy(), rpy=quat_to_rpy(quat))  # fmt: skip
+            q = tuple(quat.tolist())
+            return ImuSnapshot(q, tuple(d.sensordata[ga : ga + 3].tolist()), tuple(d.sensordata[aa : aa + 3].tolist()),
+                               rpy_of(*q))  # fmt: skip
 
     def sport_state(self) -> tuple[int, int]:
         """(fsm_id, fsm_mode) for rt/sportmodestate; (0, 0) in debug mode."""
