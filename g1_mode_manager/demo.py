@@ -64,7 +64,8 @@ def _odom_xy(client: ManagerClient):
     def keep(msg: Odometry) -> None:
         latest["odom"] = msg
 
-    client.node.create_subscription(Odometry, "/odom", keep, 10)
+    # the sim's ground truth: the sim node's own topic (~/odom of g1_sim_bridge)
+    client.node.create_subscription(Odometry, "/g1_sim_bridge/odom", keep, 10)
 
     def get() -> tuple[float, float] | None:
         msg = latest.get("odom")
@@ -122,7 +123,7 @@ def scripted_tour(client: ManagerClient) -> bool:
         drift = math.dist(moved, stopped)
         step("cmd_vel 0.5 m/s for 4 s", dist > 1.0, f"walked {dist:.2f} m, then {drift:.2f} m more after cmd_vel stopped")
     else:
-        step("cmd_vel 0.5 m/s for 4 s", False, "no /odom from the sim bridge")
+        step("cmd_vel 0.5 m/s for 4 s", False, "no /g1_sim_bridge/odom from the sim bridge")
     r = client.set_mode("low_level")
     step("set_mode low_level (robot goes limp)", r.success, r.message)
     r = client.estop()

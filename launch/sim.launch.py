@@ -4,8 +4,8 @@
 
 ``domain`` is the Unitree SDK2 (Cyclone DDS) domain of the robot side, not ROS_DOMAIN_ID. With a
 ``namespace`` (e.g. /g1_a) the node serves /g1_a/g1_mode_manager/set_mode, listens to /g1_a/cmd_vel;
-the sim publishes /g1_a/joint_states and /g1_a/odom; /estop stays global (the fleet-wide button), and so does
-the sim's /clock. For two robots, launch twice with different ``domain`` and ``namespace``.
+the sim publishes /g1_a/joint_states and its ground truth /g1_a/g1_sim_bridge/odom; /estop stays global (the
+fleet-wide button), and so does the sim's /clock. For two robots, launch twice with different ``domain`` and ``namespace``.
 """
 
 from __future__ import annotations

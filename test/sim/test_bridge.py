@@ -345,7 +345,7 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, si
     try:
         got: dict[str, Any] = {}
         node.create_subscription(JointState, "/joint_states", lambda m: got.setdefault("joints", m), 10)
-        node.create_subscription(Odometry, "/odom", lambda m: got.setdefault("odom", m), 10)
+        node.create_subscription(Odometry, "/g1_sim_bridge/odom", lambda m: got.setdefault("odom", m), 10)
         set_params = node.create_client(SetParameters, "/g1_sim_bridge/set_parameters")
         assert set_params.wait_for_service(10.0)
 
@@ -361,7 +361,7 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, si
         # ROS topics
         deadline = time.monotonic() + 10.0
         while len(got) < 2:
-            assert time.monotonic() < deadline, f"no /joint_states or /odom: {list(got)}"
+            assert time.monotonic() < deadline, f"no /joint_states or the sim's ~/odom: {list(got)}"
             time.sleep(0.05)
         assert len(got["joints"].name) == 29 and got["joints"].name[0] == "left_hip_pitch_joint"
         assert (got["odom"].header.frame_id, got["odom"].child_frame_id) == ("odom", "pelvis")

@@ -187,6 +187,62 @@ def test_delay_ranges_draw_a_delay_per_request_replayably() -> None:
     assert parse_faults(text).to_json()["delay_s"] == {"1003": [0.5, 3.0], "1002": 2.0}
 
 
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [('{"ignore_fsm_ids": 500}', "ignore_fsm_ids must be a list of fsm ids"),
+     ('{"ignore_fsm_ids": ["500"]}', "an fsm id must be an integer >= 0, got '500'"),
+     ('{"ignore_fsm_ids": [-1]}', "got -1"), ('{"ignore_fsm_ids": [true]}', "got True"),
+     ('{"ignore_fsm_ids": [500.0]}', "got 500.0")],
+)  # fmt: skip
+def test_ignore_fsm_ids_refused_with_a_reason(text: str, why: str) -> None:
+    faults = Faults(parse_faults('{"ignore_fsm_ids": [501]}'))
+    with pytest.raises(FaultConfigError, match=re.escape(why)):
+        faults.set_json(text)
+    assert faults.ignores_fsm(501) and not faults.ignores_fsm(500)
+
+
+def test_odometry_errors_have_non_zero_defaults_and_parse_partly() -> None:
+    default = parse_faults("").odom
+    assert default.xy_per_m > 0 and default.xy_mps > 0 and default.yaw_per_rad > 0 and default.noise_m > 0
+    c = parse_faults('{"odom_drift": {"xy_per_m": 0.05, "yaw_per_rad": -0.01}, "odom_noise_m": 0}')
+    assert (c.odom.xy_per_m, c.odom.yaw_per_rad, c.odom.noise_m) == (0.05, -0.01, 0.0)
+    assert c.odom.xy_mps == default.xy_mps  # left out: its default
+    assert parse_faults(json.dumps(c.to_json())) == c
+    exact = parse_faults('{"odom_drift": {"xy_per_m": 0, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}').odom
+    assert (exact.xy_per_m, exact.xy_mps, exact.yaw_per_rad, exact.noise_m) == (0, 0, 0, 0)
+
+
+@pytest.mark.parametrize(
+    ("text", "why"),
+    [('{"odom_drift": 0.01}', "odom_drift must be an object"),
+     ('{"odom_drift": {"xy": 0.01}}', "odom_drift: unknown keys ['xy']"),
+     ('{"odom_drift": {"xy_mps": -0.1}}', "odom_drift.xy_mps must be within 0..1"),
+     ('{"odom_drift": {"xy_per_m": 2}}', "odom_drift.xy_per_m must be within -1..1"),
+     ('{"odom_drift": {"yaw_per_rad": "0.1"}}', "odom_drift.yaw_per_rad: expected a number"),
+     ('{"odom_noise_m": -0.001}', "odom_noise_m must be within 0..1 m"), ('{"odom_noise_m": true}', "odom_noise_m")],
+)  # fmt: skip
+def test_odometry_errors_refused_with_a_reason(text: str, why: str) -> None:
+    faults = Faults(parse_faults('{"odom_noise_m": 0.5}'))
+    with pytest.raises(FaultConfigError, match=re.escape(why)):
+        faults.set_json(text)
+    assert faults.config.odom.noise_m == 0.5
+
+
+def test_ignored_fsm_ids_answer_ok_and_leave_the_robot_alone() -> None:
+    robot = StandIn()
+    faults = Faults(parse_faults('{"ignore_fsm_ids": [500, 0]}'))
+    assert faults.config.to_json()["ignore_fsm_ids"] == [0, 500]
+    assert parse_faults(json.dumps(faults.config.to_json())) == faults.config
+    s = _server(robot, faults)
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 500}') == (api.OK, "")
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 0}') == (api.OK, "")
+    assert robot.calls == []
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 501}') == (api.OK, "")
+    assert robot.calls == [("set_fsm_id", 501)]
+    robot.active = False  # debug mode: the sport service answers nothing but 3203, ignored ids included
+    assert s.handle_for_test(api.LOCO_SET_FSM_ID, '{"data": 500}')[0] == api.ERR_SERVER_API_NOT_IMPL
+
+
 def test_damp_fails_budget_is_used_up_and_restarts_on_set() -> None:
     faults = Faults(parse_faults('{"damp_fails": 2}'))
     assert [faults.take_damp_failure() for _ in range(3)] == [True, True, False]
@@ -264,7 +320,10 @@ def test_motion_switcher_handlers() -> None:
 # --- rt/lowcmd and rt/arm_sdk frames ---------------------------------------------------------------
 
 
-def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weight: float = 1.0) -> LowCmd_:
+def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weight: float = 1.0,
+           crc: int | None = None) -> LowCmd_:  # fmt: skip
+    """A frame with a good CRC, a wrong one (``good_crc=False``) or the given crc field (0: none, as Unitree's C++
+    arm_sdk example sends)."""
     msg = unitree_hg_msg_dds__LowCmd_()
     msg.mode_machine = mode_machine
     for i in range(29):
@@ -272,38 +331,47 @@ def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weigh
         msg.motor_cmd[i].q = 0.01 * i
         msg.motor_cmd[i].kp = 40.0
     msg.motor_cmd[29].q = weight
-    msg.crc = CRC().Crc(msg) ^ (0 if good_crc else 1)
+    msg.crc = CRC().Crc(msg) ^ (0 if good_crc else 1) if crc is None else crc
     return msg
 
 
 def test_lowcmd_checks_crc_mode_machine_and_debug_mode() -> None:
     robot = StandIn(active=False)
-    intake = commands.CommandIntake(robot)
+    seen: list[tuple[Any, ...]] = []
+    intake = commands.CommandIntake(robot, on_frame=lambda *a: seen.append(a))
     assert intake.on_lowcmd(_frame(good_crc=False)) == commands.BAD_CRC
     assert intake.on_lowcmd(_frame(mode_machine=4)) == commands.BAD_MODE_MACHINE
     assert intake.on_lowcmd(_frame()) is None
     assert intake.on_lowcmd(_frame(mode=0)) is None
+    assert intake.on_lowcmd(_frame(crc=0)) == commands.BAD_CRC  # rt/lowcmd has no "no CRC"
     robot.active = True
     assert intake.on_lowcmd(_frame()) == commands.NOT_DEBUG_MODE
     applied = [c for c in robot.calls if c[0] == "lowcmd"]
     assert len(applied) == 2 and applied[0][1][1].all() and not applied[1][1][1].any()
     assert np.allclose(applied[0][1][0], 0.01 * np.arange(29), atol=1e-6)
-    assert intake.counts()["lowcmd"] == {"received": 5, "accepted": 2, "bad_crc": 1, "bad_mode_machine": 1,
+    assert intake.counts()["lowcmd"] == {"received": 6, "accepted": 2, "bad_crc": 2, "bad_mode_machine": 1,
                                          "motors_disabled": 1, "not_debug_mode": 1}  # fmt: skip
+    assert [a[5] for a in seen] == ["wrong", "ok", "ok", "ok", "none", "ok"]
+    assert seen[0][4] == CRC().Crc(_frame()) and seen[4][4] == seen[0][4]  # the key: the content's CRC, not the field
 
 
-def test_arm_sdk_checks_crc_and_standing_not_mode_machine() -> None:
+def test_arm_sdk_takes_any_crc_and_checks_standing_not_mode_machine() -> None:
     robot = StandIn()
-    intake = commands.CommandIntake(robot)
-    assert intake.on_arm_sdk(_frame(good_crc=False)) == commands.BAD_CRC
+    seen: list[tuple[Any, ...]] = []
+    intake = commands.CommandIntake(robot, on_frame=lambda *a: seen.append(a))
+    assert intake.on_arm_sdk(_frame(crc=0)) is None  # Unitree's C++ example: no CRC at all
+    assert intake.on_arm_sdk(_frame(good_crc=False)) is None  # the field is not looked at
     assert intake.on_arm_sdk(_frame(mode_machine=0, mode=0, weight=1.7)) is None
     robot.fsm_id = 1
-    assert intake.on_arm_sdk(_frame()) == commands.NOT_STANDING
-    (call,) = [c for c in robot.calls if c[0] == "arm_sdk"]
-    q, weight = call[1]
+    assert intake.on_arm_sdk(_frame(crc=0)) == commands.NOT_STANDING
+    calls = [c for c in robot.calls if c[0] == "arm_sdk"]
+    assert len(calls) == 3
+    q, weight = calls[2][1]
     assert weight == 1.0 and q.shape == (17,) and q[0] == pytest.approx(0.12)
     counts = intake.counts()["arm_sdk"]
-    assert counts["mode_machine_not_5"] == 1 and counts["bad_crc"] == 1 and counts["not_standing"] == 1
+    assert counts == {"received": 4, "accepted": 3, "crc0": 2, "crc_wrong": 1, "mode_machine_not_5": 1,
+                      "not_standing": 1}  # fmt: skip
+    assert [(a[1], a[5]) for a in seen] == [(None, "none"), (None, "wrong"), (None, "ok"), ("not_standing", "none")]
 
 
 def test_non_finite_frames_are_ignored() -> None:
@@ -325,6 +393,15 @@ def test_lowstate_packing_matches_cyclonedds_and_sdk_crc() -> None:
     decoded = LowState_.deserialize(packer.frame_bytes())
     assert decoded.mode_machine == 5 and decoded.tick == 42
     assert decoded.motor_state[28].q == pytest.approx(1.0) and decoded.motor_state[28].tau_est == pytest.approx(3.0)
+    assert decoded.crc == CRC().Crc(decoded)
+    # motor mode and supply voltage: given once, kept until they change; the spare slots 29..34 stay zero
+    mode = np.ones(29, dtype=np.uint8)
+    mode[[0, 7]] = 0
+    packer.pack(q, q, q, np.array([1, 0, 0, 0]), np.ones(3), np.ones(3), np.zeros(3), 43, motor_mode=mode, vol=52.5)
+    packer.pack(q, q, q, np.array([1, 0, 0, 0]), np.ones(3), np.ones(3), np.zeros(3), 44)
+    decoded = LowState_.deserialize(packer.frame_bytes())
+    assert [m.mode for m in decoded.motor_state] == [0, 1, 1, 1, 1, 1, 1, 0] + [1] * 21 + [0] * 6
+    assert [m.vol for m in decoded.motor_state] == [52.5] * 29 + [0.0] * 6
     assert decoded.crc == CRC().Crc(decoded)
 
 

@@ -191,6 +191,20 @@ def test_lowstate_shapes_and_values(sim) -> None:
 
 
 @pytest.mark.sim
+def test_motor_mode_is_enabled_under_the_built_in_controller_and_as_lowcmd_asks_in_debug_mode(sim) -> None:
+    assert sim.lowstate().motor_mode.tolist() == [1] * NUM_JOINTS  # standing
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    assert sim.lowstate().motor_mode.tolist() == [1] * NUM_JOINTS  # damping is a command, not a disabled motor
+    assert sim.release_mode() == OK
+    assert sim.lowstate().motor_mode.tolist() == [0] * NUM_JOINTS  # debug mode, no rt/lowcmd yet: disabled
+    zeros29 = np.zeros(NUM_JOINTS)
+    enabled = np.ones(NUM_JOINTS)
+    enabled[[3, 9]] = 0
+    sim.apply_lowcmd(zeros29, zeros29, zeros29, zeros29, zeros29, enabled)
+    assert sim.lowstate().motor_mode.tolist() == enabled.astype(int).tolist()
+
+
+@pytest.mark.sim
 def test_remote_l2_b_damps_while_a_service_is_active_only(sim) -> None:
     sim.set_remote_keys(frozenset({"L2"}))
     sim.step(25)

@@ -3,11 +3,14 @@
 rt/lowcmd (debug mode only): a frame whose CRC is wrong or whose ``mode_machine`` is not the robot's
 (5) is ignored; motors whose ``mode`` is not 1 are disabled (no torque).
 
-rt/arm_sdk (built-in controller standing or walking): a frame whose CRC is wrong is ignored. Unlike
-rt/lowcmd, ``mode_machine`` and the motor ``mode`` flags are NOT checked: Unitree's own arm_sdk
-examples leave both at 0 and work on the robot. Frames with another ``mode_machine`` than 5 are
-counted (``mode_machine_not_5``) so a test can still see them. ``motor_cmd[29].q`` is the blend weight,
-clipped to 0..1. Frames with a non-finite number are ignored on both topics (``non_finite``).
+rt/arm_sdk (built-in controller standing or walking): neither the CRC nor ``mode_machine`` nor the motor
+``mode`` flags are checked. Unitree's own arm_sdk examples leave all three at 0 and work on the robot: the
+C++ ``g1_arm7_sdk_dds_example`` (and the ROS 2 one) never compute a CRC, and the SDK's own ``ArmSdk``
+publisher (dds_wrapper ``g1_pub.h``) has no CRC step where its ``LowCmd`` publisher has one. So the
+controller that reads rt/arm_sdk does not look at the field at all, and a non-zero wrong CRC passes as
+well as 0. Both are counted (``crc0``, ``crc_wrong``), as are frames with another ``mode_machine`` than 5
+(``mode_machine_not_5``), so a test can still see them. ``motor_cmd[29].q`` is the blend weight, clipped to
+0..1. Frames with a non-finite number are ignored on both topics (``non_finite``).
 """
 
 from __future__ import annotations
@@ -44,11 +47,26 @@ NOT_STANDING: Final = "not_standing"  # arm_sdk while the controller neither sta
 # Informational (the frame still acts).
 MODE_MACHINE_NOT_5: Final = "mode_machine_not_5"
 MOTORS_DISABLED: Final = "motors_disabled"
+ARM_SDK_CRC0: Final = "crc0"  # rt/arm_sdk frame without a CRC (the field left 0)
+ARM_SDK_CRC_WRONG: Final = "crc_wrong"  # rt/arm_sdk frame whose non-zero CRC is wrong
+
+# The frame's crc field, as the record shows it.
+CRC_OK: Final = "ok"
+CRC_NONE: Final = "none"  # 0 (and the content's CRC is not 0)
+CRC_WRONG: Final = "wrong"
 
 _MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
-#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp, the frame's crc field): for the sim's
-#: record (the crc finds the frame's receive time, see arrivals.py).
-FrameHook = Callable[[str, "str | None", float, float, int], None]
+#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp, the CRC of the frame's content, its crc
+#: field as CRC_OK / CRC_NONE / CRC_WRONG): for the sim's record (the content's CRC finds the frame's receive
+#: time, see arrivals.py).
+FrameHook = Callable[[str, "str | None", float, float, int, str], None]
+
+
+def crc_state(field: int, content: int) -> str:
+    """How a frame's crc field relates to the CRC of its content."""
+    if field == content:
+        return CRC_OK
+    return CRC_NONE if field == 0 else CRC_WRONG
 
 
 class CommandRobot(Protocol):
@@ -90,8 +108,9 @@ class CommandIntake:
     def on_lowcmd(self, msg: LowCmd_) -> str | None:
         """Apply a rt/lowcmd frame; returns the reason it was ignored, or None."""
         self._count(LOWCMD, "received")
+        content = self._crc(msg)
         m = motor_arrays(msg, range(NUM_JOINTS))
-        why = self._check_lowcmd(msg, m)
+        why = self._check_lowcmd(msg, m, content)
         if why is None:
             enabled = m[0] == MOTOR_ENABLED
             self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
@@ -99,11 +118,11 @@ class CommandIntake:
         else:
             self._ignore(LOWCMD, why)
         if self._on_frame is not None:
-            self._on_frame(LOWCMD, why, 0.0, float(np.nanmax(m[4])), int(msg.crc))
+            self._on_frame(LOWCMD, why, 0.0, float(np.nanmax(m[4])), content, crc_state(int(msg.crc), content))
         return why
 
-    def _check_lowcmd(self, msg: LowCmd_, m: np.ndarray) -> str | None:
-        if msg.crc != self._crc(msg):
+    def _check_lowcmd(self, msg: LowCmd_, m: np.ndarray, content: int) -> str | None:
+        if msg.crc != content:  # the robot's motor side checks it (Unitree's low-level examples compute it)
             return BAD_CRC
         if msg.mode_machine != MODE_MACHINE_G1_29DOF:
             return BAD_MODE_MACHINE
@@ -115,10 +134,12 @@ class CommandIntake:
 
     def on_arm_sdk(self, msg: LowCmd_) -> str | None:
         """Apply a rt/arm_sdk frame; returns the reason it was ignored, or None."""
-        self._count(ARM_SDK, "received")
+        content = self._crc(msg)
+        crc = crc_state(int(msg.crc), content)
+        self._count(ARM_SDK, "received", *{CRC_NONE: (ARM_SDK_CRC0,), CRC_WRONG: (ARM_SDK_CRC_WRONG,)}.get(crc, ()))
         weight = float(msg.motor_cmd[ARM_SDK_WEIGHT_INDEX].q)
         m = motor_arrays(msg, ARM_SDK_JOINTS)
-        why = self._check_arm_sdk(msg, m, weight)
+        why = self._check_arm_sdk(m, weight)
         if why is None:
             self._robot.apply_arm_sdk(m[1], m[2], m[3], m[4], m[5], min(max(weight, 0.0), 1.0))
             extra = () if msg.mode_machine == MODE_MACHINE_G1_29DOF else (MODE_MACHINE_NOT_5,)
@@ -126,12 +147,10 @@ class CommandIntake:
         else:
             self._ignore(ARM_SDK, why)
         if self._on_frame is not None:
-            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), int(msg.crc))
+            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), content, crc)
         return why
 
-    def _check_arm_sdk(self, msg: LowCmd_, m: np.ndarray, weight: float) -> str | None:
-        if msg.crc != self._crc(msg):
-            return BAD_CRC
+    def _check_arm_sdk(self, m: np.ndarray, weight: float) -> str | None:
         if not (math.isfinite(weight) and np.isfinite(m[1:]).all()):
             return NON_FINITE
         fsm_id, _ = self._robot.sport_state()

@@ -8,6 +8,10 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "error": {"7101": 3104},     # answer this code without handling the request
      "pause_state": true,         # stop publishing every state topic (the sim keeps running)
      "damp_fails": 2,             # the next 2 SetFsmId(1) answer 3104 and do not damp
+     "ignore_fsm_ids": [500],     # SetFsmId of these ids answers 0 and does nothing (a firmware quirk)
+     # the state estimator (rt/odommodestate; keys left out keep their defaults, firmware.odometry):
+     "odom_drift": {"xy_per_m": 0.01, "xy_mps": 0.0002, "yaw_per_rad": 0.002},
+     "odom_noise_m": 0.001,
      "seed": 7,                   # seed of the per-request delays (so a chaos scenario can be replayed)
      # the body, for a supervisor's checks:
      "motor_temperature": {"3": [90, 130]},   # report motor 3 at casing 90 C, winding 130 C while set
@@ -15,6 +19,12 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "remote_keys": ["L2", "B"],  # these keys held on the operator's remote while set
      "push": {"force": 150, "direction": [1, 0], "duration": 0.3},  # shove the pelvis, once per setting
      "freeze_lowstate": true}     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
+
+``ignore_fsm_ids`` is what users report of firmware 1.5.3: Start (SetFsmId 500) answers 0 from some states and
+the robot stays where it was, while 501 works; a client that trusts the code believes it walks.
+
+``odom_drift`` and ``odom_noise_m`` are not off by default: the robot's estimate is never the truth. Their
+defaults are firmware.odometry's; setting them (or the seed) starts a fresh estimate from the truth.
 
 Every key is optional; a new configuration replaces the old one as a whole. ``push`` acts once each time
 a configuration holding it is set (its direction: [x, y] in the world frame, or an angle in rad from +x
@@ -35,12 +45,17 @@ from typing import Any, Final
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 from g1_mode_manager.protocol.remote import KEY_NAMES, UnknownKeyError, key_mask
+from g1_sim.firmware.odometry import OdomErrors
 
 #: What a failing Damp answers (the robot's controller timing out).
 DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
 _KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed", "motor_temperature",
-                   "battery_soc", "remote_keys", "push", "freeze_lowstate"})
+                   "battery_soc", "remote_keys", "push", "freeze_lowstate", "ignore_fsm_ids", "odom_drift",
+                   "odom_noise_m"})
+#: odom_drift's keys and their bounds: signed scale errors, a creep speed.
+ODOM_DRIFT_BOUNDS: Final = {"xy_per_m": (-1.0, 1.0), "xy_mps": (0.0, 1.0), "yaw_per_rad": (-1.0, 1.0)}
+ODOM_NOISE_MAX_M: Final = 1.0
 #: Bounds of the injected values: what MotorState_'s int16 could carry sensibly, a push a person could give.
 TEMPERATURE_RANGE_C: Final = (-40.0, 200.0)
 PUSH_MAX_N: Final = 2000.0
@@ -82,6 +97,8 @@ class FaultConfig:
     remote_keys: frozenset[str] = frozenset()
     push: Push | None = None
     freeze_lowstate: bool = False
+    ignore_fsm_ids: frozenset[int] = frozenset()
+    odom: OdomErrors = field(default_factory=OdomErrors)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -96,6 +113,10 @@ class FaultConfig:
             "remote_keys": sorted(self.remote_keys, key=KEY_NAMES.index),
             "push": None if self.push is None else self.push.to_json(),
             "freeze_lowstate": self.freeze_lowstate,
+            "ignore_fsm_ids": sorted(self.ignore_fsm_ids),
+            "odom_drift": {"xy_per_m": self.odom.xy_per_m, "xy_mps": self.odom.xy_mps,
+                           "yaw_per_rad": self.odom.yaw_per_rad},
+            "odom_noise_m": self.odom.noise_m,
         }
 
 
@@ -178,7 +199,37 @@ def parse_faults(text: str) -> FaultConfig:
     return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed,
                        motor_temperature=MappingProxyType(_motor_temperature(raw.get("motor_temperature", {}))),
                        battery_soc=_battery_soc(raw.get("battery_soc")), remote_keys=_remote_keys(raw.get("remote_keys", [])),
-                       push=_push(raw.get("push")), freeze_lowstate=freeze)  # fmt: skip
+                       push=_push(raw.get("push")), freeze_lowstate=freeze,
+                       ignore_fsm_ids=_fsm_ids(raw.get("ignore_fsm_ids", []), "ignore_fsm_ids"),
+                       odom=_odom(raw.get("odom_drift", {}), raw.get("odom_noise_m")))  # fmt: skip
+
+
+def _fsm_ids(raw: Any, where: str) -> frozenset[int]:
+    if not isinstance(raw, list):
+        raise FaultConfigError(f"{where} must be a list of fsm ids (integers >= 0, e.g. [500]), got {raw!r}")
+    for v in raw:
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise FaultConfigError(f"{where}: an fsm id must be an integer >= 0, got {v!r}")
+    return frozenset(raw)
+
+
+def _odom(drift: Any, noise: Any) -> OdomErrors:
+    if not isinstance(drift, dict):
+        raise FaultConfigError(f"odom_drift must be an object {{{', '.join(ODOM_DRIFT_BOUNDS)}}}, got {drift!r}")
+    unknown = set(drift) - set(ODOM_DRIFT_BOUNDS)
+    if unknown:
+        raise FaultConfigError(f"odom_drift: unknown keys {sorted(unknown)}; known: {list(ODOM_DRIFT_BOUNDS)}")
+    values: dict[str, float] = {}
+    for key, (low, high) in ODOM_DRIFT_BOUNDS.items():
+        if key in drift:
+            values[key] = _number(drift[key], f"odom_drift.{key}")
+            if not low <= values[key] <= high:
+                raise FaultConfigError(f"odom_drift.{key} must be within {low:g}..{high:g}, got {drift[key]!r}")
+    if noise is not None:
+        values["noise_m"] = _number(noise, "odom_noise_m")
+        if not 0.0 <= values["noise_m"] <= ODOM_NOISE_MAX_M:
+            raise FaultConfigError(f"odom_noise_m must be within 0..{ODOM_NOISE_MAX_M:g} m, got {noise!r}")
+    return OdomErrors(**values)
 
 
 def _motor_temperature(raw: Any) -> dict[int, tuple[float, float]]:
@@ -293,6 +344,10 @@ class Faults:
 
     def error_code(self, api_id: int) -> int | None:
         return self._config.error.get(api_id)
+
+    def ignores_fsm(self, fsm_id: int) -> bool:
+        """SetFsmId(fsm_id) must answer 0 and do nothing."""
+        return fsm_id in self._config.ignore_fsm_ids
 
     @property
     def state_paused(self) -> bool:

@@ -3,7 +3,8 @@
 Serialising a unitree_hg LowState_ with cyclonedds-python and computing the SDK's CRC over it are too
 slow for 500 Hz of sim time at several times real time. Every field of LowState_ is a
 fixed-size primitive, so its CDR body is a fixed layout: we keep one template buffer, write q, dq,
-tau_est, motor temperatures, IMU, the remote's bytes, tick and crc into it through strided numpy views,
+tau_est, motor mode, temperatures and voltage, IMU, the remote's bytes, tick and crc into it through strided
+numpy views,
 and hand the bytes to the DataWriter through a LowState_ whose ``serialize`` returns them. A self-check at
 start-up compares the result with cyclonedds' own deserialiser and the SDK's CRC.
 """
@@ -28,6 +29,9 @@ _IMU: Final = 16  # quaternion[4] gyroscope[3] accelerometer[3] rpy[3] float32, 
 _MOTOR_Q0: Final = 72  # motor 0 q; MotorState_ is 56 bytes from one mode byte to the next
 _MOTOR_STRIDE: Final = 56
 _MOTOR_TEMPERATURE0: Final = _MOTOR_Q0 + 16  # int16[2] after q, dq, ddq, tau_est
+_MOTOR_VOL0: Final = _MOTOR_Q0 + 20  # float32 after the temperatures
+_MOTOR_MODE0: Final = 70  # motor 0's mode right after the IMU's int16 temperature ...
+_MOTOR_MODE1: Final = _MOTOR_Q0 + _MOTOR_STRIDE - 4  # ... every other one 4 bytes before its q (3 bytes padding)
 _WIRELESS_REMOTE: Final = 2028  # uint8[40] after the 35 motors, then reserve[4] and crc
 _CRC: Final = 2084
 _BODY_SIZE: Final = 2088
@@ -76,8 +80,14 @@ class LowStatePacker:
         self._temperature = np.ndarray((NUM_JOINTS, 2), dtype="<i2", buffer=self._buf,
                                        offset=body + _MOTOR_TEMPERATURE0, strides=(_MOTOR_STRIDE, 2))  # fmt: skip
         self._remote = _view(self._buf, body + _WIRELESS_REMOTE, "u1", REMOTE_SIZE, 1)
+        self._mode0 = _view(self._buf, body + _MOTOR_MODE0, "u1", 1, 1)
+        self._mode_rest = _view(self._buf, body + _MOTOR_MODE1, "u1", NUM_JOINTS - 1, _MOTOR_STRIDE)
+        self._vol = _view(self._buf, body + _MOTOR_VOL0, "<f4", NUM_JOINTS, _MOTOR_STRIDE)
         self._last_temperature: np.ndarray | None = None
         self._last_remote: bytes | None = None
+        self._last_mode = np.zeros(NUM_JOINTS, dtype=np.uint8)
+        self._last_mode_given: np.ndarray | None = None
+        self._last_vol = 0.0
         self._crc = _view(self._buf, body + _CRC, "<u4", 1, 4)
         self._c_struct = np.zeros(_BODY_SIZE, dtype=np.uint8)  # C layout without the crc word
         self._msg = _default_lowstate(mode_machine)
@@ -86,12 +96,14 @@ class LowStatePacker:
 
     def pack(self, q: np.ndarray, dq: np.ndarray, tau_est: np.ndarray, quaternion_wxyz: np.ndarray,
              gyroscope: np.ndarray, accelerometer: np.ndarray, rpy: np.ndarray, tick: int,
-             temperature: np.ndarray | None = None, remote: bytes | None = None) -> LowState_:  # fmt: skip
+             temperature: np.ndarray | None = None, remote: bytes | None = None,
+             motor_mode: np.ndarray | None = None, vol: float | None = None) -> LowState_:  # fmt: skip
         """Write one frame; returns a LowState_ to pass to the writer (its fields are NOT updated).
 
-        ``temperature`` (29 x [casing, winding], int16 deg C) and ``remote`` (40 bytes of wireless_remote)
-        change far less often than the frames: they are copied only when a different object comes in,
-        and otherwise stay as last given (zero at first).
+        ``temperature`` (29 x [casing, winding], int16 deg C), ``remote`` (40 bytes of wireless_remote),
+        ``motor_mode`` (29 x uint8) and ``vol`` (every motor's supply voltage, V) change far less often than
+        the frames: they are copied only when a different object or value comes in, and otherwise stay as
+        last given (zero at first). Motor slots 29..34 (no motor on the 29-dof G1) stay all zero.
         """
         if temperature is not None and temperature is not self._last_temperature:
             self._temperature[:] = temperature
@@ -99,6 +111,15 @@ class LowStatePacker:
         if remote is not None and remote is not self._last_remote:
             self._remote[:] = np.frombuffer(remote, dtype=np.uint8)
             self._last_remote = remote
+        if motor_mode is not None and motor_mode is not self._last_mode_given:
+            self._last_mode_given = motor_mode  # a robot hands the same array while nothing changes
+            if not np.array_equal(motor_mode, self._last_mode):
+                self._mode0[0] = motor_mode[0]
+                self._mode_rest[:] = motor_mode[1:]
+                self._last_mode = np.array(motor_mode, dtype=np.uint8)
+        if vol is not None and vol != self._last_vol:
+            self._vol[:] = vol
+            self._last_vol = vol
         self._q[:] = q
         self._dq[:] = dq
         self._tau[:] = tau_est
@@ -152,8 +173,13 @@ def self_check(packer: LowStatePacker) -> None:
     quat, gyro, acc, rpy = (rng.uniform(-1, 1, n).astype(np.float32) for n in (4, 3, 3, 3))
     temperature = rng.integers(-40, 200, (NUM_JOINTS, 2)).astype(np.int16)
     remote = rng.integers(0, 256, REMOTE_SIZE, dtype=np.uint8).tobytes()
-    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 123456, temperature, remote)
+    mode = rng.integers(1, 256, NUM_JOINTS).astype(np.uint8)
+    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 123456, temperature, remote, mode, 53.25)
     decoded = LowState_.deserialize(packer.frame_bytes())
+    motors = decoded.motor_state
+    got_mode = np.array([m.mode for m in motors[:NUM_JOINTS]], dtype=np.uint8)
+    got_vol = np.array([m.vol for m in motors[:NUM_JOINTS]], dtype=np.float32)
+    spare_slots_zero = all(m.mode == 0 and m.vol == 0.0 for m in motors[NUM_JOINTS:])
     got_temperature = np.array([m.temperature for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.int16)
     got_q = np.array([m.q for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.float32)
     got_dq = np.array([m.dq for m in decoded.motor_state[:NUM_JOINTS]], dtype=np.float32)
@@ -164,9 +190,11 @@ def self_check(packer: LowStatePacker) -> None:
         and np.array_equal(np.array(imu.quaternion, dtype=np.float32), quat)
         and np.array_equal(np.array(imu.rpy, dtype=np.float32), rpy)
         and np.array_equal(got_temperature, temperature) and bytes(decoded.wireless_remote) == remote
+        and np.array_equal(got_mode, mode) and bool(np.all(got_vol == np.float32(53.25))) and spare_slots_zero
         and decoded.tick == 123456 and decoded.mode_machine == packer.mode_machine
         and decoded.crc == lowstate_crc(decoded)
     )  # fmt: skip
     if not ok:
         raise RuntimeError("LowState_ fast packing disagrees with cyclonedds/CRC: layout changed?")
-    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 0, np.zeros((NUM_JOINTS, 2), dtype=np.int16), bytes(REMOTE_SIZE))
+    packer.pack(q, dq, tau, quat, gyro, acc, rpy, 0, np.zeros((NUM_JOINTS, 2), dtype=np.int16), bytes(REMOTE_SIZE),
+                np.zeros(NUM_JOINTS, dtype=np.uint8), 0.0)

@@ -38,7 +38,7 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--domain", type=int, help="Unitree SDK2 DDS domain id (parameter dds_domain)")
     p.add_argument("--interface", help="network interface of the DDS domain (parameter network_interface)")
     p.add_argument("--faults", help="faults JSON (parameter faults)")
-    p.add_argument("--no-ros-publish", action="store_true", help="do not publish /joint_states, /odom, /clock")
+    p.add_argument("--no-ros-publish", action="store_true", help="do not publish joint_states, ~/odom, /clock")
     p.add_argument("--assets", help="simulation assets folder (default: the installed ones)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulation's random numbers")
     p.add_argument("--record", help="append every request, frame and state change the robot saw to this JSONL file")
@@ -209,7 +209,8 @@ class Bridge:
         self.intake = CommandIntake(self.robot, on_frame=frame_hook)
         self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
-                            on_body=self._body if self.record.enabled else None)  # fmt: skip
+                            on_body=self._body if self.record.enabled else None,
+                            on_odom=self._odom if self.record.enabled else None)  # fmt: skip
         self._params = p
 
     def start(self) -> None:
@@ -237,6 +238,8 @@ class Bridge:
     def _faults_changed(self, old: Any, new: Any) -> None:
         """Hand the body's injections to the robot (keys held, a push) and record every change."""
         self.robot.set_remote_keys(new.remote_keys)
+        if (new.odom, new.seed) != (old.odom, old.seed):
+            self.robot.set_odometry_errors(new.odom, new.seed)
         if new.push is not None:
             self.robot.push(new.push.force_xy, new.push.duration_s)
         self._record_injections(old, new)
@@ -264,9 +267,9 @@ class Bridge:
         self.record.event("done", svc=service, api=api_id, p=parameter, code=code)
         self._record_state()
 
-    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, crc: int) -> None:
-        at = self.subscribers.arrival(topic, crc) if hasattr(self, "subscribers") else None
-        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max)
+    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, content_crc: int, crc: str) -> None:
+        at = self.subscribers.arrival(topic, content_crc) if hasattr(self, "subscribers") else None
+        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc)
 
     def _body(self, sim_time: float, s: Any, report: Any) -> None:
         """The record's ``body`` event (every 10 ms of sim time): what a body supervisor's checks read."""
@@ -278,6 +281,16 @@ class Bridge:
                           winding=round(report.hottest_winding_c, 2), casing=round(report.hottest_casing_c, 2),
                           soc=round(report.battery.soc, 3), z=round(z, 4))  # fmt: skip
         self._record_state()  # a change without a request (the remote's Damp) is recorded within 10 ms too
+
+    def _odom(self, sim_time: float, o: Any) -> None:
+        """The record's ``odom`` event (every rt/lf/odommodestate sample): the estimate as published (float32)
+        and the truth."""
+        est = np.array([o.position[0], o.position[1], o.rpy[2], o.velocity[0], o.velocity[1], o.yaw_speed],
+                       dtype=np.float32).tolist()  # fmt: skip
+        x, y, yaw, vx, vy, wz = (round(v, 6) for v in est)
+        self.record.event("odom", st=round(sim_time, 3), x=x, y=y, yaw=yaw, vx=vx, vy=vy, wz=wz,
+                          true_x=round(float(o.true_position[0]), 6), true_y=round(float(o.true_position[1]), 6),
+                          true_yaw=round(float(o.true_yaw), 6))  # fmt: skip
 
     def _record_state(self) -> None:
         robot = self.robot

@@ -7,10 +7,16 @@ of the machine, so a test can compare it with the moment it sent something). Kin
   the sim's Cyclone delivered it (see arrivals.py), so lines are not always in ``t`` order.
 * ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
 * ``frame``: an rt/lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
-  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded); ``t`` as for ``req``.
+  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok",
+  "none" = left 0, "wrong"; rt/lowcmd needs "ok", rt/arm_sdk takes all three); ``t`` as for ``req``.
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
   ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``.
 * ``reset``: the sim was reset to its boot state (a sim-only status call).
+* ``odom``: every rt/lf/odommodestate sample (20 Hz of sim time while a high-level service is active): ``st``
+  (sim time, the sample's stamp), the estimate as published (float32, rounded to 1e-6): ``x``, ``y`` (m),
+  ``yaw`` (rad, rpy[2]), ``vx``, ``vy`` (m/s, odometry frame), ``wz`` (rad/s, yaw_speed); and the truth:
+  ``true_x``, ``true_y``, ``true_yaw`` (the pelvis in the world frame, which is the odometry frame at the
+  start). ``t`` is when the sample was written.
 
 This is what end-to-end and chaos tests judge by: the robot's side, never the node's belief.
 """

@@ -1,4 +1,8 @@
-"""The bridge's ROS 2 side: parameters (faults and the gantry at run time), /joint_states, /odom and /clock."""
+"""The bridge's ROS 2 side: parameters (faults and the gantry at run time), joint_states, ~/odom and /clock.
+
+The ground truth odometry is the sim node's own (``~/odom``: ``/g1_sim_bridge/odom``): a plain ``odom`` would
+be taken for the robot's, which the mode manager publishes from the robot's estimate (rt/odommodestate).
+"""
 
 from __future__ import annotations
 
@@ -38,8 +42,9 @@ _DESCRIPTIONS = {
     "speed": "Sim time per wall time: 1 = real time, 3 = three times faster, 0 = as fast as possible.",
     "faults": "Faults to inject, JSON: delay_s {api: s}, drop [api], error {api: code}, pause_state, damp_fails, "
               "motor_temperature {motor: [casing, winding]}, battery_soc, remote_keys [key], push {force, direction, "
-              "duration}, freeze_lowstate (docs/sim.md).",
-    "publish_ros": "Publish /joint_states, /odom and /clock (stamps in sim time from the start's wall time).",
+              "duration}, freeze_lowstate, ignore_fsm_ids [fsm], odom_drift {xy_per_m, xy_mps, yaw_per_rad}, "
+              "odom_noise_m (docs/sim.md).",
+    "publish_ros": "Publish joint_states, ~/odom (ground truth) and /clock (stamps in sim time from the start's wall time).",
     "gantry": "Hang the pelvis from a gantry's elastic band (a limp robot hangs instead of falling).",
 }
 _READ_ONLY = frozenset({"network_interface", "dds_domain"})
@@ -76,9 +81,10 @@ class BridgeNode(Node):
         self.on_speed: Callable[[float], None] | None = None
         self.on_gantry: Callable[[bool], None] | None = None
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        # relative: a sim launched in a namespace (one per robot) has its own; /clock stays global (ROS convention)
+        # relative: a sim launched in a namespace (one per robot) has its own; /clock stays global (ROS convention).
+        # The truth is private to the sim node (~/odom), so it never passes for the robot's estimate.
         self._joint_pub = self.create_publisher(JointState, "joint_states", 10)
-        self._odom_pub = self.create_publisher(Odometry, "odom", 10)
+        self._odom_pub = self.create_publisher(Odometry, "~/odom", 10)
         self._clock_pub = self.create_publisher(Clock, "/clock", 10)
         self._joint_msg = JointState(name=list(JOINT_NAMES))
         self._odom_msg = Odometry()
@@ -128,7 +134,7 @@ class BridgeNode(Node):
     def publish_state(self, stamp_ns: int, q: np.ndarray, dq: np.ndarray, tau: np.ndarray,
                       position: np.ndarray, quat_wxyz: np.ndarray, lin_vel_world: np.ndarray,
                       ang_vel_world: np.ndarray) -> None:  # fmt: skip
-        """Publish /clock, /joint_states and /odom (twist in the pelvis frame, as REP 105 wants)."""
+        """Publish /clock, joint_states and ~/odom (the truth; twist in the pelvis frame, as REP 105 wants)."""
         stamp = _time(stamp_ns)
         self._clock_pub.publish(Clock(clock=stamp))
         j = self._joint_msg

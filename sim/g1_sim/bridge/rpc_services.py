@@ -11,6 +11,8 @@ Decisions where the robot's behaviour is not documented:
   (api not implemented) at once, getters included, and nothing acts. (The robot may also not answer
   at all; a prompt 3203 keeps tests fast, and clients treat both as "service inactive".)
 * A malformed parameter (not JSON, missing or mistyped field) answers 3204 and nothing acts.
+* Fault ``ignore_fsm_ids``: SetFsmId of those ids answers 0 and nothing changes (the firmware quirk users
+  report for Start); counted and recorded like any handled request.
 * Fault ``error``: answered with the given code, not handled. ``drop``: neither handled nor
   answered. ``delay_s``: handled and answered after the delay, in a timer thread, so requests to
   other api ids are served meanwhile.
@@ -117,6 +119,8 @@ def sport_handlers(robot: SportRobot, faults: Faults) -> dict[int, Handler]:
         fsm_id = _integer(p, "data")
         if fsm_id == 1 and faults.take_damp_failure():
             return (DAMP_FAILURE_CODE, "")
+        if faults.ignores_fsm(fsm_id):
+            return (api.OK, "")
         return (robot.set_fsm_id(fsm_id), "")
 
     def set_velocity(p: dict[str, Any]) -> Reply:

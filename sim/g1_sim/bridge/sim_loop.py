@@ -1,10 +1,20 @@
 """The sim thread: step the robot one physics step at a time and publish on the robot's schedule.
 
-rt/lowstate goes out at 500 Hz of sim time, rt/lf/lowstate (the same frames) at 20 Hz, rt/sportmodestate
-and the ROS topics at 50 Hz, rt/lf/bmsstate at BMSSTATE_RATE_HZ, all from this thread right after the
-step they describe (lowstate packing is cheap, see lowstate_codec). Every BODY_PERIOD_S of sim time the
-body's report (temperatures, battery, remote, with injected readings laid over: body_report) is taken
-afresh and handed to ``on_body`` (the bridge's record).
+rt/lowstate goes out at 500 Hz of sim time, rt/lf/lowstate (the same frames) at 20 Hz, rt/secondary_imu
+with every rt/lowstate frame, rt/sportmodestate and the ROS topics at 50 Hz, rt/lf/bmsstate at
+BMSSTATE_RATE_HZ, all from this thread right after the step they describe (packing is cheap, see
+lowstate_codec and imu_codec).
+
+rt/secondary_imu's rate on the robot is not documented. 500 Hz, the rate of the pelvis IMU in rt/lowstate:
+Unitree's ankle example subscribes both for one 2 ms control loop, and a slower torso IMU would be a
+surprise to it. It goes on when rt/lowstate alone is frozen (another topic), and stops with ``pause_state``.
+
+rt/odommodestate (500 Hz) and rt/lf/odommodestate (every 25th of its samples: 20 Hz) carry the robot's
+state estimate (firmware.odometry) while a high-level service is active only, as the robot does; each
+rt/lf/odommodestate sample is handed to ``on_odom`` (the bridge's record) with the truth beside it.
+
+Every BODY_PERIOD_S of sim time the body's report (temperatures, battery, remote, with injected readings
+laid over: body_report) is taken afresh and handed to ``on_body`` (the bridge's record).
 """
 
 from __future__ import annotations
@@ -14,7 +24,13 @@ import threading
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from g1_mode_manager.protocol.topics import LF_LOWSTATE_RATE_HZ, LOWSTATE_RATE_HZ, SPORTMODESTATE_RATE_HZ
+from g1_mode_manager.protocol.topics import (
+    LF_LOWSTATE_RATE_HZ,
+    LF_ODOMMODESTATE_RATE_HZ,
+    LOWSTATE_RATE_HZ,
+    ODOMMODESTATE_RATE_HZ,
+    SPORTMODESTATE_RATE_HZ,
+)
 from g1_sim.bridge.body_report import BodyReport, body_report
 from g1_sim.bridge.clock import Pacer, RateMeter, StampClock
 from g1_sim.bridge.faults import Faults
@@ -37,6 +53,9 @@ class SteppableRobot(Protocol):
 
     def step(self, n: int = 1) -> None: ...
     def lowstate(self) -> Any: ...
+    def torso_imu(self) -> Any: ...
+    def sport_active(self) -> bool: ...
+    def odometry(self) -> Any: ...
     def sport_state(self) -> tuple[int, int]: ...
     def arm_task(self) -> tuple[int, float]: ...
     def base_pose(self) -> Any: ...
@@ -45,6 +64,8 @@ class SteppableRobot(Protocol):
 
 #: ``on_body(sim_time, lowstate, report)`` every BODY_PERIOD_S (lowstate: the snapshot of that step).
 BodyHook = Callable[[float, Any, BodyReport], None]
+#: ``on_odom(sim_time, estimate)`` for every rt/lf/odommodestate sample (estimate: firmware.odometry's).
+OdomHook = Callable[[float, Any], None]
 
 
 def _every(rate_hz: float, dt: float) -> int:
@@ -56,7 +77,7 @@ class SimLoop:
 
     def __init__(self, robot: SteppableRobot, publishers: StatePublishers, faults: Faults, pacer: Pacer,
                  *, node: BridgeNode | None = None, stamps: StampClock | None = None,
-                 on_body: BodyHook | None = None) -> None:  # fmt: skip
+                 on_body: BodyHook | None = None, on_odom: OdomHook | None = None) -> None:  # fmt: skip
         self._robot = robot
         self._pub = publishers
         self._faults = faults
@@ -64,6 +85,7 @@ class SimLoop:
         self._node = node
         self._stamps = stamps or StampClock()
         self._on_body = on_body
+        self._on_odom = on_odom
         self.rate = RateMeter()
         self.error: BaseException | None = None
         self._stop = threading.Event()
@@ -75,8 +97,12 @@ class SimLoop:
         self._lf_every = _every(LF_LOWSTATE_RATE_HZ, dt)
         self._bms_every = _every(BMSSTATE_RATE_HZ, dt)
         self._body_every = _every(1.0 / BODY_PERIOD_S, dt)
+        self._odom_every = _every(ODOMMODESTATE_RATE_HZ, dt)
+        self._lf_odom_every = _every(LF_ODOMMODESTATE_RATE_HZ, dt)
         if self._lf_every % self._low_every:
             raise ValueError("rt/lf/lowstate must fall on rt/lowstate frames")
+        if self._lf_odom_every % self._odom_every:
+            raise ValueError("rt/lf/odommodestate must fall on rt/odommodestate samples")
         self.body = body_report(robot.body(), faults.config)  # the latest report (read by the status service)
 
     def start(self) -> None:
@@ -113,6 +139,14 @@ class SimLoop:
             if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
                 s = robot.lowstate()
                 pub.publish_lowstate(s, self.body, also_lf=k % self._lf_every == 0)
+            if k % self._low_every == 0 and not paused:
+                pub.publish_secondary_imu(robot.torso_imu())
+            if k % self._odom_every == 0 and not paused and robot.sport_active():
+                odom = robot.odometry()
+                lf = k % self._lf_odom_every == 0
+                pub.publish_odom(t, odom, also_lf=lf)
+                if lf and self._on_odom is not None:
+                    self._on_odom(t, odom)
             if k % self._sport_every == 0 and not paused:
                 pub.publish_sportmodestate(*robot.sport_state(), *robot.arm_task())
             if k % self._bms_every == 0 and not paused:

@@ -1,5 +1,5 @@
-"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate and rt/lf/bmsstate out,
-rt/lowcmd and rt/arm_sdk in."""
+"""DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate, rt/lf/bmsstate,
+rt/secondary_imu, rt/odommodestate and rt/lf/odommodestate out, rt/lowcmd and rt/arm_sdk in."""
 
 from __future__ import annotations
 
@@ -14,14 +14,18 @@ from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_
 
 from g1_mode_manager.protocol import topics
-from g1_mode_manager.protocol.idl import BmsState_, LowCmd_, LowState_, SportModeState_
+from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
+from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, SportModeState_
+from g1_mode_manager.protocol.odom_fields import OdomFields, OdomModeState_, encode_odom
 from g1_mode_manager.protocol.unitree_sdk_internals import (
     channel_datareader,
+    channel_datawriter,
     channel_matched_readers,
     publisher_channel,
     subscriber_channel,
 )
-from g1_sim.bridge.arrivals import Arrivals, last_uint32
+from g1_sim.bridge import imu_codec
+from g1_sim.bridge.arrivals import Arrivals, lowcmd_content_crc
 from g1_sim.bridge.body_report import BodyReport
 from g1_sim.bridge.commands import CommandIntake
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
@@ -37,6 +41,8 @@ BMS_SOH = 100
 BMS_CYCLE = 12
 #: BmsState_.temperature entries the sim fills (deg C); the rest stay 0.
 BMS_TEMPERATURES_C = (28, 28, 27, 27)
+#: IMUState_.temperature of the torso IMU: no model, 0 like rt/lowstate's IMU.
+TORSO_IMU_TEMPERATURE_C = 0
 
 
 class LowStateLike(Protocol):
@@ -48,11 +54,55 @@ class LowStateLike(Protocol):
     imu_accelerometer: np.ndarray
     imu_rpy: np.ndarray
     tick: int
+    motor_mode: np.ndarray
+
+
+Vec3 = tuple[float, float, float]
+
+
+class OdomLike(Protocol):
+    position: Vec3
+    velocity: Vec3
+    yaw_speed: float
+    quaternion: tuple[float, float, float, float]
+    gyroscope: Vec3
+    rpy: Vec3
+    body_height: float
+
+
+class ImuLike(Protocol):
+    quaternion: tuple[float, ...]
+    gyroscope: tuple[float, ...]
+    accelerometer: tuple[float, ...]
+    rpy: tuple[float, ...]
+
+
+class RawWriter:
+    """One topic written as ready-made CDR bytes (XCDR1): an SDK publisher (discovery, its matched count) and
+    its DataWriter.
+
+    A sample no reader has matched is not handed to DDS: with the SDK's default QoS (volatile durability)
+    DDS would drop it, and in the sim loop the call costs 7-10 us even then, 1000 times a second.
+    """
+
+    def __init__(self, topic: str, msg_type: type) -> None:
+        self.publisher = ChannelPublisher(topic, msg_type)
+        self.publisher.Init()
+        self._channel = publisher_channel(self.publisher)
+        self._writer = channel_datawriter(self._channel)
+        if writer_use_version_2(self._writer):
+            raise RuntimeError(f"the {topic} writer serialises XCDR2; its ready-made samples are XCDR1")
+
+    def write(self, data: bytes) -> bool:
+        """Publish one sample (encapsulation header first); False if DDS refused it."""
+        if channel_matched_readers(self._channel) == 0:
+            return True
+        return write_serialized(self._writer, data)
 
 
 class StatePublishers:
     """Writers of rt/lowstate and rt/lf/lowstate (packed without cyclonedds' slow serialiser),
-    rt/sportmodestate and rt/lf/bmsstate.
+    rt/sportmodestate, rt/lf/bmsstate, rt/secondary_imu and both odometry topics (written as ready-made bytes).
 
     ``publish_*`` are called from the sim thread only.
     """
@@ -72,19 +122,44 @@ class StatePublishers:
         self._bms_msg.temperature[: len(BMS_TEMPERATURES_C)] = BMS_TEMPERATURES_C
         self._packer = LowStatePacker()
         self_check(self._packer)
+        imu_codec.self_check()
+        self._imu = RawWriter(topics.SECONDARY_IMU, IMUState_)
+        self._odom = RawWriter(topics.ODOMMODESTATE, OdomModeState_)
+        self._lf_odom = RawWriter(topics.LF_ODOMMODESTATE, OdomModeState_)
         self._sport_msg = SportModeState_(fsm_id=0, fsm_mode=0, task_id=0, task_time=0.0)
         self._lock = threading.Lock()
         self._counts: Counter[str] = Counter()
 
     def publish_lowstate(self, s: LowStateLike, body: BodyReport, *, also_lf: bool = False) -> None:
-        """rt/lowstate, and the same frame on rt/lf/lowstate if ``also_lf`` (the robot's decimated copy)."""
+        """rt/lowstate, and the same frame on rt/lf/lowstate if ``also_lf`` (the robot's decimated copy).
+
+        Every motor's ``vol`` is the battery pack's voltage: the motors hang on the pack's bus."""
         msg = self._packer.pack(s.q, s.dq, s.tau_est, s.imu_quaternion, s.imu_gyroscope, s.imu_accelerometer,
-                                s.imu_rpy, s.tick, body.temperature, body.remote)  # fmt: skip
+                                s.imu_rpy, s.tick, body.temperature, body.remote, s.motor_mode,
+                                body.battery.pack_v)  # fmt: skip
         ok = self._lowstate.Write(msg)
         self._bump("lowstate" if ok else "lowstate_write_errors")
         if also_lf:
             ok = self._lf_lowstate.Write(msg)
             self._bump("lf_lowstate" if ok else "lf_lowstate_write_errors")
+
+    def publish_secondary_imu(self, imu: ImuLike) -> None:
+        """rt/secondary_imu: the torso IMU (unitree_hg IMUState_)."""
+        data = imu_codec.encode_imu(imu.quaternion, imu.gyroscope, imu.accelerometer, imu.rpy, TORSO_IMU_TEMPERATURE_C)
+        ok = self._imu.write(data)
+        self._bump("secondary_imu" if ok else "secondary_imu_write_errors")
+
+    def publish_odom(self, stamp_s: float, o: OdomLike, *, also_lf: bool = False) -> None:
+        """rt/odommodestate (unitree_go SportModeState_, stamped with sim time), and the same sample on
+        rt/lf/odommodestate if ``also_lf``."""
+        data = encode_odom(OdomFields(stamp_s=stamp_s, position=o.position, velocity=o.velocity, yaw_speed=o.yaw_speed,
+                                      quaternion=o.quaternion, gyroscope=o.gyroscope, rpy=o.rpy,
+                                      body_height=o.body_height))  # fmt: skip
+        ok = self._odom.write(data)
+        self._bump("odommodestate" if ok else "odommodestate_write_errors")
+        if also_lf:
+            ok = self._lf_odom.write(data)
+            self._bump("lf_odommodestate" if ok else "lf_odommodestate_write_errors")
 
     def publish_bmsstate(self, body: BodyReport) -> None:
         """rt/lf/bmsstate: soc %, pack voltage (mV, bmsvoltage[0]), the 13 cells (mV), current (mA)."""
@@ -116,7 +191,8 @@ class StatePublishers:
     def readers(self) -> dict[str, int]:
         """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""
         writers = {"lowstate": self._lowstate, "lf_lowstate": self._lf_lowstate, "sportmodestate": self._sport,
-                   "bmsstate": self._bms}  # fmt: skip
+                   "bmsstate": self._bms, "secondary_imu": self._imu.publisher,
+                   "odommodestate": self._odom.publisher, "lf_odommodestate": self._lf_odom.publisher}  # fmt: skip
         return {name: _matched_readers(w) for name, w in writers.items()}
 
 
@@ -140,13 +216,14 @@ class CommandSubscribers:
             self._subs.append(sub)
             if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
                 reader = channel_datareader(subscriber_channel(sub))
-                stamps = Arrivals(reader, last_uint32, window=2 * COMMAND_QUEUE_LEN)
+                stamps = Arrivals(reader, lowcmd_content_crc, window=2 * COMMAND_QUEUE_LEN)
                 self._arrivals[topic.removeprefix("rt/")] = stamps
 
-    def arrival(self, topic: str, crc: int) -> float | None:
-        """When the frame with this crc reached the process (``topic`` as the record names it), or None."""
+    def arrival(self, topic: str, content_crc: int) -> float | None:
+        """When the frame whose content has this CRC reached the process (``topic`` as the record names it),
+        or None (see arrivals.py: the key is never the frame's own crc field)."""
         arrivals = self._arrivals.get(topic)
-        return arrivals.pop(crc) if arrivals is not None else None
+        return arrivals.pop(content_crc) if arrivals is not None else None
 
 
 def _logged(topic: str, handler: Callable[[LowCmd_], object]) -> Callable[[LowCmd_], None]:

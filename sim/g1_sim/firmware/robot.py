@@ -10,6 +10,7 @@ because that is what a user of the sim wants first. ``start_fsm=0``/``1`` boots 
 
 The body around the motors: temperatures and battery (firmware.body), the operator's remote (L2+B damps,
 firmware.rules), and forces from outside on the pelvis: the gantry and pushes (physics.pelvis_forces).
+The state estimator (rt/odommodestate) is firmware.odometry's: the truth with drift and noise.
 """
 
 from __future__ import annotations
@@ -50,7 +51,8 @@ from g1_sim.firmware.arm_tasks import (
     ArmTaskPlayer,
 )
 from g1_sim.firmware.body import Body
-from g1_sim.firmware.state import BasePose, BodySnapshot, LowStateSnapshot, quat_to_rpy, tilt_rad
+from g1_sim.firmware.odometry import OdomErrors, OdomEstimate, Odometer
+from g1_sim.firmware.state import BasePose, BodySnapshot, ImuSnapshot, LowStateSnapshot, quat_to_rpy, rpy_of, tilt_rad
 from g1_sim.physics.battery import START_SOC
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
@@ -95,6 +97,9 @@ def _posture(hip: float, knee: float, ankle: float) -> np.ndarray:
 
 SQUAT_POSE: Final = _posture(-1.0, 1.87, -0.87)
 SIT_POSE: Final = _posture(-1.6, 2.4, -0.8)
+
+_ALL_ENABLED: Final = np.ones(NUM_JOINTS, dtype=np.uint8)
+_ALL_ENABLED.flags.writeable = False
 
 _models: dict[Path, G1Model] = {}
 _models_lock = threading.Lock()
@@ -145,6 +150,8 @@ class SimG1:
         self._forces.set_gantry(gantry, self._data)
         self._remote: frozenset[str] = frozenset()
         self._remote_damp_held = False
+        self._odometer = Odometer()
+        self._torso_quat = np.empty(4)  # scratch for torso_imu
 
         self._service = ""
         self._silent = False
@@ -289,6 +296,19 @@ class SimG1:
         with self._lock:
             self.counters["pushes"] += 1
             self._forces.push(force_xy, duration_s, self.time)
+
+    def set_odometry_errors(self, errors: OdomErrors, seed: int = 0) -> None:
+        """A fresh estimator with these errors, starting from the truth now."""
+        with self._lock:
+            self._odometer = Odometer(errors, seed)
+
+    def odometry(self) -> OdomEstimate:
+        """The state estimator's output now (rt/odommodestate; the robot publishes it only while a service is
+        active, the estimate itself runs on)."""
+        with self._lock:
+            d = self._data
+            qpos, qvel = d.qpos[:7].tolist(), d.qvel[:6].tolist()  # free joint: world velocity, body rate
+            return self._odometer.update(float(d.time), qpos[0:3], qpos[3:7], qvel[0:3], qvel[3:6])
 
     def body(self) -> BodySnapshot:
         """Motor temperatures, battery and the remote's keys as the firmware has them now."""
@@ -549,7 +569,26 @@ class SimG1:
                 q=self._s.q.copy(), dq=self._s.dq.copy(), tau_est=d.actuator_force[:NUM_JOINTS].copy(),
                 imu_quaternion=quat, imu_gyroscope=d.sensordata[ga : ga + 3].copy(),
                 imu_accelerometer=d.sensordata[aa : aa + 3].copy(), imu_rpy=quat_to_rpy(quat),
-                tick=round(d.time * 1000.0), mode_machine=MODE_MACHINE_G1_29DOF)
+                tick=round(d.time * 1000.0), mode_machine=MODE_MACHINE_G1_29DOF, motor_mode=self._motor_mode())
+
+    def _motor_mode(self) -> np.ndarray:
+        """MotorState_.mode: 1 while a motor is enabled, as MotorCmd_.mode means it ("1:Enable, 0:Disable" in
+        Unitree's low-level examples). The built-in controller keeps every motor enabled, damping and zero
+        torque included (they command kp = 0, not a disabled driver); in debug mode each motor is what the
+        last rt/lowcmd frame asked, disabled until one arrives."""
+        if self._service:
+            return _ALL_ENABLED
+        return self._lowlevel.enabled.astype(np.uint8)
+
+    def torso_imu(self) -> ImuSnapshot:
+        """The torso IMU (rt/secondary_imu): the model's sensors on torso_link, orientation of their site."""
+        with self._lock:
+            d, g1, quat = self._data, self._g1, self._torso_quat
+            mujoco.mju_mat2Quat(quat, d.site_xmat[g1.torso_imu_site])
+            ga, aa = g1.torso_gyro_adr, g1.torso_accel_adr
+            q = tuple(quat.tolist())
+            return ImuSnapshot(q, tuple(d.sensordata[ga : ga + 3].tolist()), tuple(d.sensordata[aa : aa + 3].tolist()),
+                               rpy_of(*q))  # fmt: skip
 
     def sport_state(self) -> tuple[int, int]:
         """(fsm_id, fsm_mode) for rt/sportmodestate; (0, 0) in debug mode."""

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -22,6 +24,17 @@ class LowStateSnapshot:
     imu_rpy: np.ndarray  # roll, pitch, yaw in rad
     tick: int  # ms of sim time since boot
     mode_machine: int
+    motor_mode: np.ndarray  # 29, uint8: 1 = the motor is enabled (servo on), 0 = disabled (no torque)
+
+
+class ImuSnapshot(NamedTuple):
+    """What an IMU reports (unitree_hg IMUState_): orientation, rates and specific force in its own frame.
+    (Plain floats in a named tuple: made 500 times a second of sim time, published as they are.)"""
+
+    quaternion: tuple[float, ...]  # w x y z
+    gyroscope: tuple[float, ...]  # rad/s
+    accelerometer: tuple[float, ...]  # m/s^2 (specific force: +9.81 z when at rest upright)
+    rpy: tuple[float, ...]  # roll, pitch, yaw in rad
 
 
 @dataclass(frozen=True)
@@ -34,13 +47,18 @@ class BasePose:
     angular_velocity: np.ndarray  # rad/s, world
 
 
+def rpy_of(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """Roll, pitch, yaw (ZYX) of a w x y z quaternion, on floats (numpy's calls per element would cost more
+    than the arithmetic, at 1000 calls a second of sim time)."""
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
 def quat_to_rpy(q: np.ndarray) -> np.ndarray:
     """Roll, pitch, yaw (ZYX) of a w x y z quaternion."""
-    w, x, y, z = q
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
+    return np.array(rpy_of(*np.asarray(q, dtype=float).tolist()))
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,10 @@ STAND_KEY: Final = "stand"
 PELVIS_BODY: Final = "pelvis"
 PELVIS_GYRO: Final = "imu-pelvis-angular-velocity"
 PELVIS_ACCEL: Final = "imu-pelvis-linear-acceleration"
+#: The torso IMU (rt/secondary_imu): Menagerie's model has its site and sensors on torso_link.
+TORSO_IMU_SITE: Final = "imu_in_torso"
+TORSO_GYRO: Final = "imu-torso-angular-velocity"
+TORSO_ACCEL: Final = "imu-torso-linear-acceleration"
 #: Joint i (motor order) is qpos[QPOS0 + i] and qvel[QVEL0 + i] (after the pelvis free joint): asserted at build.
 QPOS0: Final = 7
 QVEL0: Final = 6
@@ -36,6 +40,9 @@ class G1Model:
     pelvis_body: int
     gyro_adr: int
     accel_adr: int
+    torso_imu_site: int
+    torso_gyro_adr: int
+    torso_accel_adr: int
     stand_key: int
     stand_poses: StandPoses
 
@@ -115,6 +122,9 @@ def build_model(root: str | Path | None = None) -> G1Model:
         pelvis_body=model.body(PELVIS_BODY).id,
         gyro_adr=int(model.sensor(PELVIS_GYRO).adr[0]),
         accel_adr=int(model.sensor(PELVIS_ACCEL).adr[0]),
+        torso_imu_site=model.site(TORSO_IMU_SITE).id,
+        torso_gyro_adr=int(model.sensor(TORSO_GYRO).adr[0]),
+        torso_accel_adr=int(model.sensor(TORSO_ACCEL).adr[0]),
         stand_key=key,
         stand_poses=StandPoses(model),
     )
