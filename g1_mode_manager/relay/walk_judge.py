@@ -1,16 +1,18 @@
-"""/cmd_vel judged on the robot: Moves the robot acknowledged, compared with the speed its odometry shows.
+"""/cmd_vel judged on the robot: Moves the robot acknowledged, compared with how far its odometry says it went.
 
 The robot answers SetVelocity with 0 in states where it does not walk (firmware quirks, a robot hung in a
-gantry, feet off the ground), so an acknowledged Move is not a walking robot. Each acknowledged Move is
-compared with the newest rt/lf/odommodestate: a command worth walking for whose measured speed stays below
-a fifth of it for longer than ``after_s`` is reported. Without odometry (old firmware) nothing is judged,
-and the report says so instead of guessing.
+gantry, feet off the ground), so an acknowledged Move is not a walking robot. While Moves worth walking for
+are acknowledged, the robot's estimate (rt/lf/odommodestate, at each acknowledgement) is compared over the
+last ``after_s``: a robot whose mean speed (distance and heading change over that window, so that a body
+swaying in place does not count as walking) stays below a fifth of the command is reported. Without
+odometry (old firmware) nothing is judged, and the report says so instead of guessing.
 """
 
 from __future__ import annotations
 
 import math
 import threading
+from collections import deque
 from dataclasses import dataclass
 from typing import Final
 
@@ -31,12 +33,21 @@ WARNING: Final = "Moves acknowledged, robot not walking: is it in a walking fsm?
 
 @dataclass(frozen=True)
 class WalkReport:
-    """``warning``: set while the robot acknowledges Moves but does not walk; ``judged``: odometry was there."""
+    """``warning``: set while the robot acknowledges Moves but does not walk; ``judged``: odometry was there.
+    ``commanded`` and ``measured``: (m/s, rad/s), the latter the mean over the last window."""
 
     warning: str | None
     judged: bool
-    commanded: tuple[float, float] = (0.0, 0.0)  # (|v| m/s, |wz| rad/s)
+    commanded: tuple[float, float] = (0.0, 0.0)
     measured: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class _Fix:
+    at: float
+    x: float
+    y: float
+    yaw: float  # unwrapped over the stretch
 
 
 class WalkJudge:
@@ -45,7 +56,8 @@ class WalkJudge:
             raise ValueError("not_walking_after_s must be > 0")
         self._after_s = float(after_s)
         self._lock = threading.Lock()
-        self._since: float | None = None  # first acknowledged Move of the current not-walking stretch
+        self._fixes: deque[_Fix] = deque()  # the current stretch of judged acknowledgements
+        self._since: float | None = None  # when the window first showed no walking
         self._last_ack = -math.inf
         self._judged = False
         self._commanded = (0.0, 0.0)
@@ -55,15 +67,30 @@ class WalkJudge:
         """One Move the robot answered with 0, at ``now`` (monotonic), and the newest odometry then."""
         commanded = (math.hypot(vx, vy), abs(wz))
         with self._lock:
-            self._last_ack = now
-            self._commanded = commanded
-            if odom is None or odom.age_s > ODOM_FRESH_S:
-                self._judged, self._since = False, None
+            gap = now - self._last_ack > ACK_FRESH_S
+            self._last_ack, self._commanded = now, commanded
+            fresh = odom is not None and odom.age_s <= ODOM_FRESH_S
+            worth = _worth_judging(commanded)
+            if gap or not fresh or not worth:  # a new stretch
+                self._fixes.clear()
+                self._since = None
+            self._judged = fresh
+            if odom is None or not fresh or not worth:
                 return
             f = odom.fields
-            measured = (math.hypot(f.velocity[0], f.velocity[1]), abs(f.yaw_speed))
-            self._judged, self._measured = True, measured
-            if _walking(commanded, measured) or not _worth_judging(commanded):
+            yaw = f.rpy[2]
+            if self._fixes:  # unwrap: a turn past +-pi must not look like a jump back
+                yaw = self._fixes[-1].yaw + (yaw - self._fixes[-1].yaw + math.pi) % (2 * math.pi) - math.pi
+            self._fixes.append(_Fix(now, f.position[0], f.position[1], yaw))
+            while len(self._fixes) > 2 and now - self._fixes[1].at >= self._after_s:
+                self._fixes.popleft()
+            first = self._fixes[0]
+            if now - first.at < self._after_s:
+                return  # not a whole window yet
+            dt = now - first.at
+            measured = (math.hypot(f.position[0] - first.x, f.position[1] - first.y) / dt, abs(yaw - first.yaw) / dt)
+            self._measured = measured
+            if _walking(commanded, measured):
                 self._since = None
             elif self._since is None:
                 self._since = now
@@ -72,10 +99,10 @@ class WalkJudge:
         with self._lock:
             fresh = now - self._last_ack <= ACK_FRESH_S
             warning = None
-            if fresh and self._since is not None and now - self._since >= self._after_s:
+            if fresh and self._since is not None:
                 (cv, cw), (mv, mw) = self._commanded, self._measured
                 warning = (f"{WARNING} (commanded {cv:.2f} m/s, {cw:.2f} rad/s; odometry shows {mv:.2f} m/s, "
-                           f"{mw:.2f} rad/s for {now - self._since:.1f} s)")  # fmt: skip
+                           f"{mw:.2f} rad/s over the last {self._after_s:g} s)")  # fmt: skip
             return WalkReport(warning, self._judged and fresh, self._commanded, self._measured)
 
 
