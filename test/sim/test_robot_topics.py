@@ -213,9 +213,10 @@ def test_torso_imu_and_odometry_at_their_rates_odometry_only_while_a_service_is_
     s1 = sim.status.get()
     assert after["n"][topics.ODOMMODESTATE] == before["n"][topics.ODOMMODESTATE]
     assert after["n"][topics.LF_ODOMMODESTATE] == before["n"][topics.LF_ODOMMODESTATE]
+    # (sim times from the status, taken up to 0.1 s of wall time apart from the counts: a rough rate)
     imu_hz = (after["n"][topics.SECONDARY_IMU] - before["n"][topics.SECONDARY_IMU]) / (s1["sim_time"] - s0["sim_time"])
-    print(f"released: rt/secondary_imu {imu_hz:.0f} Hz of sim time (status sim times), odometry 0")
-    assert imu_hz == pytest.approx(500.0, rel=0.1)  # a sensor: published in every mode
+    print(f"released: rt/secondary_imu about {imu_hz:.0f} Hz of sim time, odometry 0")
+    assert imu_hz > 400  # a sensor: published in every mode
     assert s1["published"]["odommodestate"] == s0["published"]["odommodestate"]
 
 
@@ -253,7 +254,7 @@ def test_the_estimate_drifts_by_its_configured_scale_and_is_the_truth_without_er
         turned = last["true_yaw"] - first["true_yaw"]
         print(f"{faults}: walked {math.hypot(*true_move):.3f} m, turned {turned:.2f} rad; estimate moved "
               f"{math.hypot(*est_move):.4f} m, yaw error {last['yaw'] - last['true_yaw']:+.5f} rad")
-        assert math.hypot(*true_move) > 0.8 and turned > 0.3
+        assert math.hypot(*true_move) > 0.5 and turned > 0.3  # a 5 % scale error: > 25 mm, tolerance 0.2 mm
         assert est_move == pytest.approx((scale * true_move[0], scale * true_move[1]), abs=2e-4)
         assert last["yaw"] == pytest.approx(last["true_yaw"], abs=1e-5)  # no heading error configured
 
@@ -302,8 +303,12 @@ def test_a_stock_arm_sdk_client_without_crc_moves_the_arm(sim: Bridge) -> None:
     assert code == 0, client.output()
     (step,) = [line for line in json_lines(client) if line["step"] == "arm7"]
     print(f"stock arm7 client: {step}")
-    frames = [e for e in sim.record.events(t0) if e["k"] == "frame" and e["topic"] == "arm_sdk"]
-    assert step["crc"] == 0 and len(frames) >= step["frames"] - 2  # (the last ones may still be on the way)
+    def arm_frames() -> list[Event]:
+        return [e for e in sim.record.events(t0) if e["k"] == "frame" and e["topic"] == "arm_sdk"]
+
+    assert wait_until(lambda: len(arm_frames()) >= step["frames"], 5.0), (len(arm_frames()), step["frames"])
+    frames = arm_frames()
+    assert step["crc"] == 0
     assert all(e["crc"] == "none" and e["ok"] for e in frames), {(e["crc"], e["ok"], e["why"]) for e in frames}
     counts = sim.status.get()["frames"]["arm_sdk"]
     assert counts["crc0"] >= len(frames) and counts.get("bad_crc", 0) == 0
