@@ -79,10 +79,14 @@ HIGH_LEVEL_SERVICE_NAME: Final = "ai"
 # --- arm action service (the robot's canned upper-body actions) -----------------------------------
 ARM_SERVICE: Final = "arm"
 ARM_API_VERSION: Final = "1.0.0.14"
-ARM_EXECUTE_ACTION: Final = 7106  # {"data": action_id}
+ARM_EXECUTE_ACTION: Final = 7106  # {"data": action_id} (Python SDK) or {"action_id": action_id} (C++ SDK)
 ARM_GET_ACTION_LIST: Final = 7107
 ARM_APIS: Final = (ARM_EXECUTE_ACTION, ARM_GET_ACTION_LIST)
 ARM_ACTION_RELEASE: Final = 99  # "release arm": ends any action
+#: Actions taught with Unitree's app, by name (C++ SDK only).
+ARM_EXECUTE_CUSTOM_ACTION: Final = 7108  # {"action_name": str}
+ARM_STOP_CUSTOM_ACTION: Final = 7113
+ARM_ERR_INVALID_ACTION_ID: Final = 7402  # "Invalid action id." (C++ SDK g1_arm_action_error.hpp)
 
 # --- voice service (speaker, microphone, head RGB LED) -------------------------------------------
 VOICE_SERVICE: Final = "voice"
@@ -93,6 +97,9 @@ VOICE_GET_VOLUME: Final = 1005  # -> {"volume": 0..100}
 VOICE_SET_VOLUME: Final = 1006  # {"volume": 0..100}
 VOICE_SET_LED: Final = 1010  # {"R": 0..255, "G": 0..255, "B": 0..255}: the head RGB LED
 VOICE_APIS: Final = (VOICE_TTS, VOICE_GET_VOLUME, VOICE_SET_VOLUME, VOICE_SET_LED)
+#: Playing a PCM stream sent in chunks (the request's binary part: 16 kHz mono 16-bit), and stopping it.
+VOICE_START_PLAY: Final = 1003  # {"app_name": str, "stream_id": str} + PCM bytes
+VOICE_STOP_PLAY: Final = 1004  # {"app_name": str}
 
 # --- return codes ------------------------------------------------------------------------------
 OK: Final = 0

@@ -19,7 +19,7 @@ from g1_sim.bridge import commands
 from g1_sim.bridge.clock import Pacer, RateMeter
 from g1_sim.bridge.faults import FaultConfigError, Faults, parse_faults
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
-from g1_sim.bridge.rpc_services import SimServer, motion_switcher_handlers, sport_handlers
+from g1_sim.bridge.rpc_services import SimServer, arm_action_handlers, motion_switcher_handlers, sport_handlers
 
 
 @dataclass
@@ -315,6 +315,30 @@ def test_motion_switcher_handlers() -> None:
     assert s.handle_for_test(api.MS_SELECT_MODE, '{"name": 3}')[0] == api.ERR_SERVER_API_PARAMETER
     assert s.handle_for_test(api.MS_SELECT_MODE, '{"name": "ai"}')[0] == 0
     assert json.loads(s.handle_for_test(api.MS_GET_SILENT, "{}")[1]) == {"silent": False}
+
+
+@dataclass
+class ArmStandIn:
+    executed: list[int] = field(default_factory=list)
+
+    def execute_arm_action(self, action_id: int) -> int:
+        self.executed.append(action_id)
+        return api.OK
+
+    def arm_action_list(self) -> dict[int, str]:
+        return {99: "release arm"}
+
+
+def test_arm_service_takes_both_sdks_parameters_and_has_no_custom_actions() -> None:
+    robot = ArmStandIn()
+    s = SimServer(api.ARM_SERVICE, api.ARM_API_VERSION, arm_action_handlers(robot))
+    assert s.handle_for_test(api.ARM_EXECUTE_ACTION, '{"data": 26}') == (api.OK, "")  # Python SDK
+    assert s.handle_for_test(api.ARM_EXECUTE_ACTION, '{"action_id":99}') == (api.OK, "")  # C++ SDK
+    assert s.handle_for_test(api.ARM_EXECUTE_ACTION, "{}")[0] == api.ERR_SERVER_API_PARAMETER
+    assert robot.executed == [26, 99]
+    assert s.handle_for_test(api.ARM_EXECUTE_CUSTOM_ACTION, '{"action_name":"wave"}')[0] == api.ARM_ERR_INVALID_ACTION_ID
+    assert s.handle_for_test(api.ARM_EXECUTE_CUSTOM_ACTION, "{}")[0] == api.ERR_SERVER_API_PARAMETER
+    assert s.handle_for_test(api.ARM_STOP_CUSTOM_ACTION, "") == (api.OK, "")
 
 
 # --- rt/lowcmd and rt/arm_sdk frames ---------------------------------------------------------------

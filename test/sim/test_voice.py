@@ -30,3 +30,15 @@ def test_bad_parameters_answer_3204_and_change_nothing() -> None:
                               (api.VOICE_SET_VOLUME, {"volume": 101}), (api.VOICE_TTS, {"text": 5})):  # fmt: skip
         assert h[api_id](json.dumps(parameter))[0] == api.ERR_SERVER_API_PARAMETER
     assert state.status()["led"] == [0, 0, 0] and state.status()["tts"] == [] and state.volume == BOOT_VOLUME
+
+
+def test_audio_streams_are_taken_and_stopped_as_a_robot_with_a_speaker_does() -> None:
+    state = VoiceState()
+    h = voice_handlers(state)
+    chunk = json.dumps({"app_name": "example", "stream_id": "1700000000000"})
+    assert h[api.VOICE_START_PLAY](chunk) == (api.OK, "")  # the PCM chunk rides in the request's binary part
+    assert h[api.VOICE_START_PLAY](chunk) == (api.OK, "")
+    assert h[api.VOICE_STOP_PLAY](json.dumps({"app_name": "example"})) == (api.OK, "")
+    assert h[api.VOICE_STOP_PLAY](json.dumps({"app_name": "example"})) == (api.OK, "")  # nothing playing: 0 too
+    assert state.status()["play"] == {"chunks": 2, "stops": 2, "stream": None}
+    assert h[api.VOICE_START_PLAY](json.dumps({"app_name": "example"}))[0] == api.ERR_SERVER_API_PARAMETER

@@ -8,10 +8,11 @@ Cyclone (11: multicast on lo; 0.10: unicast), and uses only the SDK's classes: `
 on cyclonedds 11 to match a robot) it describes uint8/int8 as Cyclone 0.10 does before the first topic.
 
 Steps, in the order given: ``stand`` (Damp, StandUp until static), ``walk`` (Start, Move 0.5 m/s for
-2.5 s, StopMove), ``arm``
-(rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``release`` (ReleaseMode), ``damp``
-(SelectMode("ai") then Damp). Each prints one JSON line ``{"step", "t", ...codes}``; the caller judges
-what the robot did from the robot's side. Exit 0 once every step ran, 1 if the server never answered.
+2.5 s, StopMove), ``arm`` (rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``arm7``
+(rt/arm_sdk the way Unitree's C++ ``g1_arm7_sdk_dds_example.cpp`` writes it: no CRC, the weight 1 at once,
+the left shoulder pitch ramped at 0.5 rad/s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then
+Damp). Each prints one JSON line ``{"step", "t", ...codes}``; the caller judges what the robot did from the
+robot's side. Exit 0 once every step ran, 1 if the server never answered.
 """
 
 from __future__ import annotations
@@ -96,6 +97,54 @@ def arm(publisher: Any, lowstate: Any) -> None:
     emit("arm", frames=frames)
 
 
+def arm7(publisher: Any, lowstate: Any, target: float = -0.9) -> None:
+    """As ``g1_arm7_sdk_dds_example.cpp`` does: one LowCmd_ reused for every frame and never given a CRC (its
+    crc field stays 0), the weight in motor 29's q set to 1 from the first frame, kp 60, kd 1.5, 50 Hz, each
+    joint target moved by at most 0.5 rad/s x 0.02 s a frame; then the weight stepped down. The example's
+    arm poses are replaced by the pose it starts from with only the left shoulder pitch raised to ``target``,
+    and its phases are shortened."""
+    from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
+
+    state = lowstate.Read(2.0)
+    if state is None:
+        emit("arm7", error="no rt/lowstate")
+        return
+    q0 = [m.q for m in state.motor_state[:29]]
+    msg = unitree_hg_msg_dds__LowCmd_()
+    control_dt, max_joint_delta = 0.02, 0.5 * 0.02
+    desired = {i: q0[i] for i in ARM_JOINTS}
+
+    def send(weight: float) -> None:
+        msg.motor_cmd[WEIGHT_INDEX].q = weight
+        for i in ARM_JOINTS:
+            m = msg.motor_cmd[i]
+            m.q, m.dq, m.kp, m.kd, m.tau = desired[i], 0.0, 60.0, 1.5, 0.0
+        publisher.Write(msg)
+        time.sleep(control_dt)
+
+    frames = 0
+    for _ in range(25):  # hold the pose it found, the weight at 1 at once
+        send(1.0)
+        frames += 1
+    while desired[LEFT_SHOULDER_PITCH] != target:  # lift: at most max_joint_delta a frame
+        step = target - desired[LEFT_SHOULDER_PITCH]
+        desired[LEFT_SHOULDER_PITCH] += max(-max_joint_delta, min(max_joint_delta, step))
+        send(1.0)
+        frames += 1
+    for _ in range(25):
+        send(1.0)
+        frames += 1
+    state = lowstate.Read(1.0)
+    lifted = None if state is None else state.motor_state[LEFT_SHOULDER_PITCH].q
+    weight = 1.0
+    while weight > 0.0:  # stop: the weight stepped down, then 0
+        weight = max(0.0, weight - 0.05)
+        send(weight)
+        frames += 1
+    emit("arm7", frames=frames, crc=msg.crc, shoulder_before=q0[LEFT_SHOULDER_PITCH], shoulder_lifted=lifted,
+         target=target)
+
+
 def main(argv: list[str]) -> int:
     type_fix = "--type-fix" in argv
     args = [a for a in argv if a != "--type-fix"]
@@ -132,6 +181,8 @@ def main(argv: list[str]) -> int:
             walk(loco)
         elif step == "arm":
             arm(publisher, lowstate)
+        elif step == "arm7":
+            arm7(publisher, lowstate)
         elif step == "release":
             code, _ = switcher.ReleaseMode()
             emit("release", code=code, check=switcher.CheckMode()[1])

@@ -201,16 +201,28 @@ class ArmRobot(Protocol):
 
 
 def arm_action_handlers(robot: ArmRobot) -> dict[int, Handler]:
-    """Handlers of the ``arm`` service: ExecuteAction {"data": id}; GetActionList answers
-    ``[{"id", "name"}, ...]`` (the robot's reply format is not documented)."""
+    """Handlers of the ``arm`` service: ExecuteAction {"data": id} as the Python SDK sends it, or
+    {"action_id": id} as the C++ SDK does; GetActionList answers ``[{"id", "name"}, ...]`` (the robot's reply
+    format is not documented). The sim has no actions taught with Unitree's app: ExecuteCustomAction answers
+    7402 (the SDK's "Invalid action id.") for any name, StopCustomAction 0 (nothing plays)."""
+
+    def execute(p: dict[str, Any]) -> Reply:
+        return (robot.execute_arm_action(_integer(p, "data" if "data" in p else "action_id")), "")
+
+    def execute_custom(p: dict[str, Any]) -> Reply:
+        if not isinstance(p.get("action_name"), str):
+            raise BadParameterError(f"'action_name' must be a string, got {p.get('action_name')!r}")
+        return (api.ARM_ERR_INVALID_ACTION_ID, "")
 
     def action_list(p: dict[str, Any]) -> Reply:
         actions = [{"id": i, "name": n} for i, n in sorted(robot.arm_action_list().items())]
         return (api.OK, json.dumps(actions))
 
     table: dict[int, Callable[[dict[str, Any]], Reply]] = {
-        api.ARM_EXECUTE_ACTION: lambda p: (robot.execute_arm_action(_integer(p, "data")), ""),
+        api.ARM_EXECUTE_ACTION: execute,
         api.ARM_GET_ACTION_LIST: action_list,
+        api.ARM_EXECUTE_CUSTOM_ACTION: execute_custom,
+        api.ARM_STOP_CUSTOM_ACTION: lambda p: (api.OK, ""),
     }
     return {api_id: _guarded(h) for api_id, h in table.items()}
 
