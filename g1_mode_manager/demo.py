@@ -22,12 +22,13 @@ from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_local
 class Child:
     """A child process whose output is echoed with a prefix and searched for a ready line."""
 
-    def __init__(self, name: str, argv: list[str], ready_text: str) -> None:
+    def __init__(self, name: str, argv: list[str], ready_text: str, env: dict[str, str] | None = None) -> None:
         self.name = name
         self.ready = threading.Event()
         self._ready_text = ready_text
         self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1,
-                                     start_new_session=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                                     start_new_session=True,
+                                     env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})})
         threading.Thread(target=self._pump, daemon=True).start()
 
     def _pump(self) -> None:
@@ -156,8 +157,11 @@ def main(argv: list[str] | None = None) -> int:
     children = [sim]
     try:
         sim.wait_ready(60.0)
+        # as the launch files run it: odometry on, on Fast DDS whatever the shell exports (node/one_dds_stack.py)
         node = Child("node", [py, "-u", "-m", "g1_mode_manager.node.main", "--ros-args",
-                              "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo"], "ready in")
+                              "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo",
+                              "-p", "odom_rate_hz:=20.0"], "ready in",
+                     env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})  # fmt: skip
         children.append(node)
         node.wait_ready(30.0)
         ok = True
