@@ -41,10 +41,11 @@ $(STAMPS)/package: $(STAMPS)/msgs setup.py setup.cfg package.xml
 lint: setup
 	$(BIN)/ruff check .
 
-# Three workers (pytest-xdist), each with DDS domains of its own; a test file stays in one worker (one
-# xdist group a file, test/conftest.py), the chaos batch runs in two parts.
+# Three workers (pytest-xdist), each with DDS domains of its own; a test file stays in one worker, so its
+# module fixtures (one sim for a file's tests) are made once. (--dist loadgroup does not group with
+# pytest 9.2: xdist 3.8 renames the node id through an attribute pytest no longer reads.)
 test: setup lint
-	$(BIN)/python -m pytest -n 3 --dist loadgroup
+	$(BIN)/python -m pytest -n 3 --dist loadfile
 
 # `make run VIEW=1` opens MuJoCo's viewer on the sim (where a display exists).
 run: setup

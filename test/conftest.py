@@ -43,13 +43,3 @@ def sdk_channels(sdk_domain: int) -> int:
 
     init_channels(sdk_domain, "lo")
     return sdk_domain
-
-
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """One xdist group per test file (``make test`` runs ``--dist loadgroup``): a file's tests share one
-    worker, its DDS domains and module fixtures, as with ``loadfile``; a test that names a group of its own
-    (the chaos batch's parts) can run beside the rest of its file on another worker."""
-    for item in items:
-        if item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(item.path.relative_to(item.config.rootpath).as_posix()))
