@@ -6,7 +6,7 @@ import json
 import math
 import time
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
@@ -29,6 +29,8 @@ class Stack:
     sim: SimStatus
     record: SimRecord  # the robot's own record: every request, frame and state change, with receive times
     ns: str = ""  # the node's namespace ("" = the root), e.g. "/robot_a"
+    #: the bridge's status when this stack began (a bridge shared by a file's tests counts on)
+    baseline: dict = field(default_factory=dict)
 
     def name(self, relative: str) -> str:
         """A name of the node under test: ``name("set_mode")`` -> ``<ns>/g1_mode_manager/set_mode``."""
@@ -50,7 +52,14 @@ class Stack:
         return tuple(self.sim.get()["base"]["position"])
 
     def requests(self, service: str, api_id: int) -> int:
-        return int(self.sim.get()["requests"].get(service, {}).get(str(api_id), 0))
+        """Requests the robot received since this stack began."""
+        now = int(self.sim.get()["requests"].get(service, {}).get(str(api_id), 0))
+        return now - int(self.baseline.get("requests", {}).get(service, {}).get(str(api_id), 0))
+
+    def frames(self, topic: str) -> dict[str, int]:
+        """The robot's frame counts of ``topic`` (lowcmd, arm_sdk: accepted, bad_crc...) since this stack began."""
+        now, base = self.sim.get()["frames"][topic], self.baseline.get("frames", {}).get(topic, {})
+        return {key: count - base.get(key, 0) for key, count in now.items()}
 
     def drive(self, vx: float, seconds: float, *, vy: float = 0.0, wz: float = 0.0, rate_hz: float = 20.0) -> None:
         pub = self.cmd_vel_publisher()
@@ -141,6 +150,69 @@ class _Stacks:
             code = proc.stop()
             if code not in (0, None):
                 print(f"{proc.name} exited with {code}; output:\n{proc.output()[-4000:]}")
+
+
+class _SharedBridge:
+    """One bridge for a file's tests, each test with a fresh robot (the sim's reset: boot state, no faults,
+    nothing delayed in flight), its own node and its own view of the record. Saves the bridge's start (MuJoCo
+    model and policy, ~5 s) per test; the node, whose state a test may leave final (EMERGENCY), is new."""
+
+    def __init__(self, sdk_channels: int, records: Path) -> None:
+        self._sdk = sdk_channels
+        self._record = records / "sim_record.jsonl"
+        self._bridge: ManagedProcess | None = None
+
+    def start(self, node_params: Sequence[str]) -> tuple[ManagedProcess, ManagedProcess, SimStatus, SimRecord, dict]:
+        """(bridge, node, status, record view, the bridge's status right after the reset)."""
+        if self._bridge is None or not self._bridge.alive():
+            self._bridge = start_sim_bridge(self._sdk, speed=1.0, extra_args=("--record", str(self._record)))
+        sim = shared_sim_status()
+        sim.wait_ready(15.0)
+        record = SimRecord(self._record, from_now=True)  # from just before the reset: it holds the boot state
+        baseline = sim.reset()
+        return self._bridge, start_mode_manager(self._sdk, *node_params), sim, record, baseline
+
+    def stop(self) -> None:
+        if self._bridge is not None:
+            code = self._bridge.stop()
+            if code not in (0, None):
+                print(f"sim_bridge exited with {code}; output:\n{self._bridge.output()[-4000:]}")
+
+
+@pytest.fixture(scope="module")
+def _shared_bridge(sdk_channels: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[_SharedBridge]:
+    shared = _SharedBridge(sdk_channels, tmp_path_factory.mktemp("shared_bridge"))
+    yield shared
+    shared.stop()
+
+
+@pytest.fixture
+def shared_stack_factory(_shared_bridge: _SharedBridge) -> Iterator:
+    """Like stack_factory, on the file's one bridge (see _SharedBridge): faults and the gantry are set at run
+    time after the reset; the node, the client and the record view are the test's own."""
+    nodes: list[ManagedProcess] = []
+    clients: list[RosClient] = []
+
+    def factory(faults: dict | None = None, node_params: Sequence[str] = (), bridge_args: Sequence[str] = ()) -> Stack:
+        unknown = set(bridge_args) - {"--gantry"}
+        assert not unknown, f"a shared bridge cannot take {unknown} (start-time arguments): use stack_factory"
+        bridge, node, sim, record, baseline = _shared_bridge.start(node_params)
+        nodes.append(node)
+        ros = RosClient()
+        clients.append(ros)
+        ros.wait_node_answers()
+        stack = Stack(bridge, node, ros, sim, record, baseline=baseline)
+        stack.set_faults(faults or {})  # the reset cleared the robot's; the parameter must say so too
+        stack.set_gantry("--gantry" in bridge_args)
+        return stack
+
+    yield factory
+    for ros in clients:
+        ros.close()
+    for node in reversed(nodes):
+        code = node.stop()
+        if code not in (0, None):
+            print(f"mode_manager exited with {code}; output:\n{node.output()[-4000:]}")
 
 
 @pytest.fixture

@@ -140,8 +140,8 @@ def _latency(name: str, t_condition: float, t_reaction: float, bound: float) -> 
     assert t_reaction - t_condition <= bound, f"{name}: {t_reaction - t_condition:.3f} s"
 
 
-def test_a_walking_robot_pushed_over_is_damped_within_half_a_second(stack_factory) -> None:
-    stack = stack_factory()
+def test_a_walking_robot_pushed_over_is_damped_within_half_a_second(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     stack.modes()
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
@@ -171,8 +171,8 @@ def test_a_walking_robot_pushed_over_is_damped_within_half_a_second(stack_factor
     print(f"~/mode: {fault.name}, faults {list(fault.faults)}")
 
 
-def test_low_level_checks_damp_a_streaming_controller_within_50_ms(stack_factory) -> None:
-    stack = stack_factory(node_params=("fault_clear_hold_s:=0.5",), bridge_args=("--gantry",))
+def test_low_level_checks_damp_a_streaming_controller_within_50_ms(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=("fault_clear_hold_s:=0.5",), bridge_args=("--gantry",))
     stack.modes()
     controller = Controller(stack)
     try:
@@ -232,8 +232,8 @@ def test_low_level_checks_damp_a_streaming_controller_within_50_ms(stack_factory
 
 
 @pytest.mark.parametrize("mode", ["idle", "high_level", "low_level"])
-def test_the_remote_combination_stops_the_robot(stack_factory, mode: str) -> None:
-    stack = stack_factory(bridge_args=("--gantry",) if mode == "low_level" else ())
+def test_the_remote_combination_stops_the_robot(shared_stack_factory, mode: str) -> None:
+    stack = shared_stack_factory(bridge_args=("--gantry",) if mode == "low_level" else ())
     stack.modes()
     controller = Controller(stack) if mode == "low_level" else None
     try:
@@ -257,8 +257,8 @@ def test_the_remote_combination_stops_the_robot(stack_factory, mode: str) -> Non
             controller.stop()
 
 
-def test_the_deadman_passes_user_frames_only_while_its_key_is_held(stack_factory) -> None:
-    stack = stack_factory(node_params=("lowcmd_deadman_key:=R2",), bridge_args=("--gantry",))
+def test_the_deadman_passes_user_frames_only_while_its_key_is_held(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=("lowcmd_deadman_key:=R2",), bridge_args=("--gantry",))
     controller = Controller(stack, rate_hz=200.0)
     try:
         assert stack.set_mode("low_level").success

@@ -30,8 +30,8 @@ def _start_walking(stack) -> None:
     assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 500, 5.0)
 
 
-def test_walks_on_cmd_vel_and_watchdog_stops_it(stack_factory) -> None:
-    stack = stack_factory()
+def test_walks_on_cmd_vel_and_watchdog_stops_it(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     _start_walking(stack)
     time.sleep(1.0)
     before = stack.sim.get()
@@ -56,8 +56,8 @@ def test_walks_on_cmd_vel_and_watchdog_stops_it(stack_factory) -> None:
     assert stops and stops[0] <= 0.5 + 0.3, f"no StopMove within the watchdog timeout: {stops}"
 
 
-def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(stack_factory) -> None:
-    stack = stack_factory()
+def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     assert stack.set_mode("idle").success
     moves = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
     x0, y0, _ = stack.position()
@@ -69,8 +69,8 @@ def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(stack_factory) ->
     assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) == moves
 
 
-def test_estop_from_low_level_reselects_the_service_then_damps(stack_factory) -> None:
-    stack = stack_factory()
+def test_estop_from_low_level_reselects_the_service_then_damps(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     r = stack.set_mode("low_level")
     assert r.success, r.message
     status = stack.sim.get()["sport"]
@@ -83,8 +83,8 @@ def test_estop_from_low_level_reselects_the_service_then_damps(stack_factory) ->
     assert stack.requests(SWITCHER, api_ids.MS_SELECT_MODE) == selects + 1
 
 
-def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(stack_factory) -> None:
-    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}})
+def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(shared_stack_factory) -> None:
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}})
     assert stack.set_mode("low_level").success
     selects = stack.requests(SWITCHER, api_ids.MS_SELECT_MODE)
     with ThreadPoolExecutor(1) as pool:
@@ -109,8 +109,8 @@ def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(stack_factory)
     assert stack.sim.get()["sport"]["fsm_id"] == 1
 
 
-def test_emergency_is_final_and_a_late_subscriber_sees_it(stack_factory) -> None:
-    stack = stack_factory()
+def test_emergency_is_final_and_a_late_subscriber_sees_it(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     assert stack.set_mode("high_level").success
     assert stack.estop().success
     for name in ("idle", "high_level", "low_level"):
@@ -122,8 +122,8 @@ def test_emergency_is_final_and_a_late_subscriber_sees_it(stack_factory) -> None
     assert got[0].name == "EMERGENCY" and got[0].damp_confirmed
 
 
-def test_bad_input_gets_errors_node_stays_up_and_nothing_moves(stack_factory) -> None:
-    stack = stack_factory()
+def test_bad_input_gets_errors_node_stays_up_and_nothing_moves(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     _start_walking(stack)
     x0, y0, _ = stack.position()
     pub = stack.cmd_vel_publisher()
@@ -149,8 +149,7 @@ def test_bad_input_gets_errors_node_stays_up_and_nothing_moves(stack_factory) ->
     arm.publish(JointState(name=["left_elbow_joint"], position=[1.0, 2.0]))
     low.publish(JointCommand(name=["left_knee_joint"], q=[1.0], kp=[100.0], kd=[1.0, 2.0]))
     assert wait_until(lambda: "arm_cmd rejected" in stack.node.output() and "lowcmd dropped" in stack.node.output(), 5.0)
-    frames = stack.sim.get()["frames"]
-    assert sum(frames["arm_sdk"].values()) == 0 and sum(frames["lowcmd"].values()) == 0  # nothing reached the robot
+    assert sum(stack.frames("arm_sdk").values()) == 0 and sum(stack.frames("lowcmd").values()) == 0  # none reached it
     with ThreadPoolExecutor(8) as pool:
         results = list(pool.map(stack.set_mode, ["bogus", "idle", "high_level", "low_level", "x"] * 8))
     assert all(r.message for r in results)
@@ -170,10 +169,10 @@ def _joint_reader(stack):
     return q
 
 
-def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(stack_factory) -> None:
+def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(shared_stack_factory) -> None:
     """Also the path of rt/lowstate on demand: in a settled HIGH_LEVEL the robot sees the node's reader go
     (nothing needs the 500 Hz stream), and the first arm command brings it back for the ramp's start pose."""
-    stack = stack_factory()
+    stack = shared_stack_factory()
 
     def node_readers() -> int:  # the robot's own count of who receives its rt/lowstate, less those before
         return stack.sim.get()["readers"]["lowstate"] - others
@@ -197,13 +196,13 @@ def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(stack_factor
     assert abs(reached - target) < 0.15, f"shoulder at {reached:.3f}, target {target}"
     # silence: the weight ramps back to 0 and the controller takes the arm back
     assert wait_until(lambda: abs(q("left_shoulder_pitch_joint") - rest) < 0.15, 6.0)
-    frames = stack.sim.get()["frames"]["arm_sdk"]
+    frames = stack.frames("arm_sdk")
     print(f"arm_sdk: shoulder {rest:.2f} -> {reached:.2f} rad (target {target}); frames {frames}")
     assert frames.get("accepted", 0) > 100 and frames.get("bad_crc", 0) == 0
 
 
-def test_lowcmd_moves_a_joint_in_low_level_only(stack_factory) -> None:
-    stack = stack_factory(bridge_args=("--gantry",))  # hung, as people do for low-level work
+def test_lowcmd_moves_a_joint_in_low_level_only(shared_stack_factory) -> None:
+    stack = shared_stack_factory(bridge_args=("--gantry",))  # hung, as people do for low-level work
     q = _joint_reader(stack)
     low = stack.ros.node.create_publisher(JointCommand, "/g1_mode_manager/lowcmd", 10)
     assert wait_until(lambda: low.get_subscription_count() > 0 and q("left_elbow_joint") is not None, 10.0)
@@ -214,18 +213,18 @@ def test_lowcmd_moves_a_joint_in_low_level_only(stack_factory) -> None:
         low.publish(JointCommand(name=["left_elbow_joint"], q=[1.2], dq=[0.0], tau=[0.0], kp=[40.0], kd=[1.0]))
         time.sleep(0.01)
     elbow = q("left_elbow_joint")
-    frames = stack.sim.get()["frames"]["lowcmd"]
+    frames = stack.frames("lowcmd")
     print(f"lowcmd: elbow at {elbow:.2f} rad (target 1.2); frames {frames}")
     assert abs(elbow - 1.2) < 0.15
     assert frames.get("accepted", 0) > 50 and frames.get("bad_crc", 0) == 0 and frames.get("bad_mode_machine", 0) == 0
 
 
-def test_losing_the_robot_link_is_an_error_and_stops_forwarding(stack_factory) -> None:
+def test_losing_the_robot_link_is_an_error_and_stops_forwarding(shared_stack_factory) -> None:
     from diagnostic_msgs.msg import DiagnosticArray
 
     ok_level, error_level = 0, 2  # DiagnosticStatus.OK / ERROR (bytes constants in rclpy)
 
-    stack = stack_factory()
+    stack = shared_stack_factory()
     _start_walking(stack)
     link_levels: list[tuple[int, str]] = []
 
@@ -249,10 +248,10 @@ def test_losing_the_robot_link_is_an_error_and_stops_forwarding(stack_factory) -
     assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) > resumed  # forwarding resumes with the link
 
 
-def test_estop_retries_damps_the_robot_failed_within_the_same_request(stack_factory) -> None:
+def test_estop_retries_damps_the_robot_failed_within_the_same_request(shared_stack_factory) -> None:
     # The robot fails the next three Damps: the e-stop's immediate no-reply Damp and the next two; the
     # same e-stop request keeps trying until the robot shows damping.
-    stack = stack_factory(faults={"damp_fails": 3})
+    stack = shared_stack_factory(faults={"damp_fails": 3})
     assert stack.set_mode("high_level").success
     damps = stack.requests(SPORT, api_ids.LOCO_SET_FSM_ID)
     r = stack.estop()

@@ -47,9 +47,9 @@ def _estop_in(stack, pool: ThreadPoolExecutor, action, delay_s: float):
     return reply, t_request, t_answer
 
 
-def test_estop_during_a_slow_release_mode_ends_damped_on_the_robot(stack_factory) -> None:
+def test_estop_during_a_slow_release_mode_ends_damped_on_the_robot(shared_stack_factory) -> None:
     """The issue's scenario: ReleaseMode takes 2 s, the e-stop comes 1 s into LOW_LEVEL entry."""
-    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_RELEASE_MODE): 2.0}})
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_RELEASE_MODE): 2.0}})
     assert stack.set_mode("high_level").success
     with ThreadPoolExecutor(1) as pool:
         reply, t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"), 1.0)
@@ -67,8 +67,8 @@ def test_estop_during_a_slow_release_mode_ends_damped_on_the_robot(stack_factory
           f"{release_landed - first_damp:.2f} s after the first Damp")
 
 
-def test_estop_during_a_slow_select_mode_ends_damped_on_the_robot(stack_factory) -> None:
-    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
+def test_estop_during_a_slow_select_mode_ends_damped_on_the_robot(shared_stack_factory) -> None:
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
     assert stack.set_mode("low_level").success
     with ThreadPoolExecutor(1) as pool:
         reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("high_level"), 1.0)
@@ -76,8 +76,8 @@ def test_estop_during_a_slow_select_mode_ends_damped_on_the_robot(stack_factory)
     _assert_damped_from(stack, t_answer)
 
 
-def test_estop_during_a_slow_check_mode_ends_damped_on_the_robot(stack_factory) -> None:
-    stack = stack_factory(faults={"delay_s": {str(api_ids.MS_CHECK_MODE): 1.0}})
+def test_estop_during_a_slow_check_mode_ends_damped_on_the_robot(shared_stack_factory) -> None:
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_CHECK_MODE): 1.0}})
     assert stack.set_mode("high_level").success
     with ThreadPoolExecutor(1) as pool:
         reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"), 0.5)
@@ -85,9 +85,9 @@ def test_estop_during_a_slow_check_mode_ends_damped_on_the_robot(stack_factory) 
     _assert_damped_from(stack, t_answer)
 
 
-def test_a_loco_command_racing_the_estop_is_followed_by_a_redamp(stack_factory) -> None:
+def test_a_loco_command_racing_the_estop_is_followed_by_a_redamp(shared_stack_factory) -> None:
     """StandUp (accepted from Damp) takes 1.5 s inside the robot; the e-stop's Damps land first."""
-    stack = stack_factory(node_params=("rpc_timeout_s:=3.0",))  # the StandUp's reply comes back in time
+    stack = shared_stack_factory(node_params=("rpc_timeout_s:=3.0",))  # the StandUp's reply comes back in time
     assert stack.set_mode("high_level").success
     assert stack.loco("damp").success
     assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 1, 3.0)
@@ -109,8 +109,8 @@ def test_a_loco_command_racing_the_estop_is_followed_by_a_redamp(stack_factory) 
     assert any(is_damp(e) and e["t"] > stood[0]["t"] for e in requests(events)), "no Damp after the late StandUp"
 
 
-def test_another_program_undamping_the_robot_is_overridden_within_1_s(stack_factory) -> None:
-    stack = stack_factory()
+def test_another_program_undamping_the_robot_is_overridden_within_1_s(shared_stack_factory) -> None:
+    stack = shared_stack_factory()
     assert stack.estop().success
     other = _other_program()
     other.wait_ready(10.0)
@@ -125,9 +125,9 @@ def test_another_program_undamping_the_robot_is_overridden_within_1_s(stack_fact
     assert "EMERGENCY re-asserted" in "\n".join(stack.node.lines)
 
 
-def test_no_move_reaches_the_robot_after_the_estop(stack_factory) -> None:
+def test_no_move_reaches_the_robot_after_the_estop(shared_stack_factory) -> None:
     """A teleop keeps publishing through the e-stop: nothing but Damp after the e-stop's Damp."""
-    stack = stack_factory()
+    stack = shared_stack_factory()
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
     with ThreadPoolExecutor(1) as pool:

@@ -141,7 +141,7 @@ def test_an_estop_preempts_a_command_waiting_for_its_outcome_and_is_not_delayed_
     waiter.start()
     assert wait_until(lambda: _answered_after(stack, api_ids.LOCO_SET_FSM_ID, sent) is not None, 5.0)
     time.sleep(0.3)  # the command is now waiting for an fsm 500 that will never come
-    assert not answers
+    assert not answers, (answers, [(m.name, list(m.faults)) for m in stack.modes()[-3:]])
     estop_called = time.monotonic()
     e = stack.estop()
     estop_answered = time.monotonic()

@@ -138,7 +138,7 @@ def test_moves_acknowledged_by_a_robot_that_does_not_walk_are_reported(stack, he
              for e0 in of_kind(stack.record.events(since), "odom")[:1] for e in of_kind(stack.record.events(since), "odom")]
     print(f"reported {reported:.1f} s after the first Move (not_walking_after_s 1.0, ~/mode at 1 Hz); "
           f"the robot moved {100 * max(moved):.1f} cm; {heard.status('walking')}")
-    assert max(moved) < 0.1
+    assert max(moved) < 0.3  # it sways in the band; walking, it would have gone 2 m
     assert wait_until(lambda: not warned(), 5.0), "the warning outlived the Moves"
     stack.set_gantry(False)
 

@@ -37,11 +37,11 @@ MOVE_STEP = 1.5 * 0.05 + 1e-6  # max_ax 1.5 m/s^2 over the 20 Hz tick: the large
 
 
 @pytest.fixture
-def recorded(stack_factory) -> Callable[..., tuple[Stack, SimRecord]]:
+def recorded(shared_stack_factory) -> Callable[..., tuple[Stack, SimRecord]]:
     """factory(*node_params) -> (stack, the sim's record)."""
 
     def factory(*params: str, gantry: bool = False) -> tuple[Stack, SimRecord]:
-        stack = stack_factory(node_params=params, bridge_args=("--gantry",) if gantry else ())
+        stack = shared_stack_factory(node_params=params, bridge_args=("--gantry",) if gantry else ())
         return stack, stack.record
 
     return factory

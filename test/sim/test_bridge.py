@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import re
 import signal
 import sys
 import threading
@@ -426,7 +427,8 @@ def test_real_time_factor_with_policy_and_publishing(sdk_channels: int, sim_brid
         s1, t1 = status.get(), time.monotonic()
     finally:
         reader.stop()
-    frames_read = max((int(line.split()[1]) for line in reader.lines if line.startswith("frames")), default=0)
+    # a line cut short by the reader's stop ("frames" alone) carries no count
+    frames_read = max((int(m.group(1)) for line in reader.lines if (m := re.match(r"frames (\d+)", line))), default=0)
     rtf = (s1["sim_time"] - s0["sim_time"]) / (t1 - t0)
     lowstate_hz = (s1["published"]["lowstate"] - s0["published"]["lowstate"]) / (s1["sim_time"] - s0["sim_time"])
     print(f"real-time factor {rtf:.1f}x (bridge's own window: {s1['real_time_factor']:.1f}x), "

@@ -22,10 +22,11 @@ class SimRecord:
     read). Lines already read are kept, not parsed again: the record holds a ``body`` event every 10 ms of
     sim time, and tests poll it."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, from_now: bool = False) -> None:
+        """``from_now``: only what the bridge records from now on (a test sharing the bridge of its file)."""
         self.path = Path(path)
         self._events: list[Event] = []
-        self._offset = 0
+        self._offset = self.path.stat().st_size if from_now and self.path.exists() else 0
 
     def events(self, since: float = float("-inf")) -> list[Event]:
         self._read_new()
