@@ -25,9 +25,10 @@ pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 #: Short enough for the firmware quirk's wait, long enough for any outcome but a posture motion's.
 OUTCOME_TIMEOUT_S = 1.5
 
-#: How long after the e-stop's call its first Damp must reach the robot with a loco command waiting (the
-#: e-stop path without one: a few ms).
-ESTOP_BOUND_S = 0.05
+#: How long after the e-stop's call its first Damp may reach the robot with a loco command waiting: a few ms
+#: on a quiet machine (printed), up to ~0.1 s in a loaded suite, while an e-stop held behind the command would
+#: come after its whole outcome wait (OUTCOME_TIMEOUT_S).
+ESTOP_BOUND_S = 0.5
 
 
 def _standing(stack) -> bool:

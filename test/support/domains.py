@@ -6,9 +6,12 @@ import fcntl
 import os
 import tempfile
 
-# ROS 2 domains 1..101 are safe with Fast DDS port mapping; Cyclone accepts 0..230.
-_ROS_RANGE = range(11, 101)
-_SDK_RANGE = range(120, 230)
+# Both stacks map domain d to UDP ports from 7400 + 250 d. Above domain 100 those fall in Linux's
+# ephemeral range (32768-60999), where any process's outgoing socket may already hold one: a sim then
+# fails to start with "failed to bind to ANY:<port>: address in use" (seen with SDK domain 206). So both
+# kinds share 11..100, split in two so that no ROS domain ever equals an SDK domain.
+_ROS_RANGE = range(11, 56)
+_SDK_RANGE = range(56, 101)
 _held: list[int] = []  # open lock file descriptors, kept for the life of the process
 
 
