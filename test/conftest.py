@@ -43,3 +43,18 @@ def sdk_channels(sdk_domain: int) -> int:
 
     init_channels(sdk_domain, "lo")
     return sdk_domain
+
+
+#: Folders whose files run for tens of seconds each (a sim per file or per test), longest kinds first.
+_HEAVY_FIRST = ("test/chaos/", "test/e2e/", "test/sim/", "test/packaging/")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The heavy files first: ``--dist loadfile`` hands files to the workers in this order, and starting with
+    the longest keeps one of them from running alone at the end. The order within a file is kept."""
+
+    def rank(item: pytest.Item) -> int:
+        path = item.path.relative_to(config.rootpath).as_posix()
+        return next((i for i, folder in enumerate(_HEAVY_FIRST) if path.startswith(folder)), len(_HEAVY_FIRST))
+
+    items.sort(key=rank)

@@ -287,23 +287,6 @@ def test_concurrent_calls_from_many_threads_all_get_their_own_reply(robot: Unitr
     assert len(set(ids)) == len(ids)
 
 
-def test_benchmark_rpc_round_trip_and_frame_cost(robot: UnitreeRobot, peer: Peer, pytestconfig: pytest.Config) -> None:
-    peer()
-    rtts = []
-    for _ in range(200):
-        start = time.perf_counter()
-        robot.get_fsm_id()
-        rtts.append(time.perf_counter() - start)
-    rtts.sort()
-    commands = [MotorCommand(q=0.1, kp=50.0, kd=1.0)] * 17
-    start = time.perf_counter()
-    for _ in range(500):
-        robot.write_arm_sdk(commands, 0.5)
-    frame_us = (time.perf_counter() - start) / 500 * 1e6
-    show(pytestconfig, f"RPC round trip (GetFsmId, 200 calls): median {rtts[100] * 1e3:.2f} ms, "
-         f"p99 {rtts[197] * 1e3:.2f} ms; arm_sdk frame build + CRC + write: {frame_us:.0f} us")  # fmt: skip
-
-
 def test_lowcmd_before_any_lowstate_raises() -> None:
     reader = LowStateReader()  # no lowstate publisher is running
     writer = LowCmdWriter(lambda: reader.mode_machine)
