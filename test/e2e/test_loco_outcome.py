@@ -111,7 +111,9 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> No
 
 
 def _stand_still(stack) -> None:
-    """Back to the lock stand (from walking: fsm 4 straight away), in HIGH_LEVEL."""
+    """Back to the lock stand (from walking: fsm 4 straight away), in HIGH_LEVEL, hung in the gantry: the
+    test before may leave the robot stepping, and locking a stand mid-step can topple it (a FAULT)."""
+    stack.set_gantry(True)
     r = stack.set_mode("high_level")
     assert r.success or r.message.startswith("already in HIGH_LEVEL"), r.message
     r = stack.loco("stand_up")
