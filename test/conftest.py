@@ -45,8 +45,8 @@ def sdk_channels(sdk_domain: int) -> int:
     return sdk_domain
 
 
-#: The slowest files, slowest first (seconds in a loaded 3-worker run, 2026-11-24: 115, 103, 87, 79, 57, 50,
-#: 44, 39, 30, 29, 27, 27, 25, 24); then every other file of these folders, then the rest.
+#: The slowest files, slowest first (as measured with --durations=0 in a 3-worker run; figures in
+#: docs/figures.md); then every other file of these folders, then the rest.
 _SLOWEST_FIRST = ("test/chaos/test_chaos_second_half.py", "test/chaos/test_chaos.py", "test/e2e/test_end_to_end.py",
                   "test/e2e/test_streams.py", "test/sim/test_bridge.py", "test/e2e/test_estop_truth.py",
                   "test/e2e/test_body.py", "test/packaging/test_colcon_build.py",

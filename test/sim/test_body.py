@@ -13,7 +13,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,7 @@ from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.crc import lowstate_crc
 from g1_mode_manager.protocol.idl import BmsState_, LowState_, SportModeState_
 from g1_mode_manager.protocol.remote import decode_remote
+from support.collected import Collected
 from support.mode_manager import RosClient, wait_until
 from support.processes import ManagedProcess
 from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
@@ -49,19 +50,6 @@ class Latest:
         """A sample received after this call began (or None)."""
         self._sub.Read(0.02)  # the one kept from before
         return self._sub.Read(timeout_s)
-
-
-@dataclass
-class Collected:
-    """Every sample of a low-rate topic, with a listener (20 Hz of sim time: cheap)."""
-
-    topic: str
-    idl_type: type
-    samples: list[Any] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        self._sub = ChannelSubscriber(self.topic, self.idl_type)
-        self._sub.Init(self.samples.append, 50)
 
 
 @dataclass

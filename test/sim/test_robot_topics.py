@@ -16,7 +16,7 @@ import math
 import sys
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +29,7 @@ from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.idl import IMUState_, LowState_
 from g1_mode_manager.protocol.odom_fields import OdomModeState_
+from support.collected import Collected
 from support.cyclone010 import STOCK_CLIENT, json_lines
 from support.mode_manager import RosClient, wait_until
 from support.processes import ManagedProcess
@@ -79,19 +80,6 @@ try:
 except KeyboardInterrupt:
     pass
 """
-
-
-@dataclass
-class Collected:
-    """Every sample of a low-rate topic, with a listener in this process (20 Hz of sim time: cheap)."""
-
-    topic: str
-    idl_type: type
-    samples: list[Any] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        self._sub = ChannelSubscriber(self.topic, self.idl_type)
-        self._sub.Init(self.samples.append, 50)
 
 
 @dataclass
