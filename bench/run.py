@@ -23,6 +23,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable
+from itertools import pairwise
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -439,58 +440,130 @@ def paced(publish: Callable[[], None], rate_hz: float) -> Callable[[], None]:
     return step
 
 
-def cpu_rows(bench: Bench, seconds: float) -> list[tuple[str, float]]:
+def raw_stream(topic: str, rate_hz: float, seconds: float) -> dict:
+    """Unitree's own SDK publisher streaming ``topic`` from a process of its own (bench/raw_stream.py)."""
+    out = Path(tempfile.mkdtemp(prefix="g1_raw_")) / "raw.json"
+    subprocess.run([sys.executable, "-m", "bench.raw_stream", "--domain", str(SDK_DOMAIN), "--topic", topic,
+                    "--rate", str(rate_hz), "--seconds", str(seconds), "--out", str(out)],
+                   cwd=REPO, check=True, timeout=seconds + 30)  # fmt: skip
+    return json.loads(out.read_text())
+
+
+def stream_timing(sim: Sim, sends: list[tuple[float, float]], topic: str, period_s: float) -> tuple[Stats, Stats]:
+    """(send -> received at the robot, |inter-arrival gap - period| at the robot) of a marked stream: each frame's
+    marker (motor 0's kp) is its ``kp_max`` on the sim's record (``topic`` as the record names it: "lowcmd")."""
+    since = min(t for _m, t in sends) - 0.01
+    time.sleep(0.3)  # the last frames' record lines
+    arrivals: dict[float, list[float]] = {}
+    for e in sim.events(since):
+        if e.get("k") == "frame" and e.get("topic") == topic and e.get("ok"):
+            arrivals.setdefault(e["kp_max"], []).append(e["t"])
+    latency, received = [], []
+    for marker, sent in sends:
+        later = [t for t in arrivals.get(marker, ()) if t >= sent]
+        if later:
+            latency.append(min(later) - sent)
+            received.append(min(later))
+    received.sort()
+    gaps = [abs((b - a) - period_s) for a, b in pairwise(received)]
+    return Stats(latency), Stats(gaps)
+
+
+def _lowcmd_message(seq: int):
+    from g1_mode_manager_msgs.msg import JointCommand
+
+    from bench.raw_stream import marker
+
+    n = len(JOINT_NAMES)
+    kp = [0.0] * n
+    kp[0] = marker(seq)
+    return JointCommand(name=list(JOINT_NAMES), q=[0.0] * n, dq=[0.0] * n, tau=[0.0] * n, kp=kp, kd=[2.0] * n)
+
+
+def cpu_rows(bench: Bench, sim: Sim, seconds: float) -> tuple[list[tuple[str, str]], dict[str, float]]:
+    """The node's CPU in each mode and stream, and the streams' raw SDK references from the same run."""
     from g1_mode_manager_msgs.msg import JointCommand
     from geometry_msgs.msg import Twist
     from sensor_msgs.msg import JointState
 
-    rows: list[tuple[str, float]] = []
+    rows: list[tuple[str, str]] = []
+    summary: dict[str, float] = {}
+
+    def cpu(name: str, value: float) -> float:
+        rows.append((name, f"{value:5.1f} % of one core"))
+        return value
+
     node = fresh_node(bench, walk=True)
     try:
         time.sleep(4.0)  # settled: rt/lowstate unsubscribed 2 s after the last thing that needed it
-        rows.append(("node CPU, HIGH_LEVEL walking, no commands", cpu_percent(node.proc.pid, seconds)))
+        summary["cpu_idle_pct"] = cpu("node CPU, HIGH_LEVEL walking, no commands", cpu_percent(node.proc.pid, seconds))
         pub = bench.publisher(Twist, "/cmd_vel")
         msg = Twist()
         msg.linear.x = 0.3
         for rate in (10, 100, 1000):
-            rows.append((f"node CPU, /cmd_vel at {rate} Hz", cpu_percent(node.proc.pid, seconds,
-                                                                         paced(lambda: pub.publish(msg), rate))))
+            value = cpu(f"node CPU, /cmd_vel at {rate} Hz", cpu_percent(node.proc.pid, seconds,
+                                                                         paced(lambda: pub.publish(msg), rate)))
+            if rate == 100:
+                summary["cpu_100hz_pct"] = value
             time.sleep(1.0)
         arm = bench.publisher(JointState, f"{NODE}/arm_cmd")
         arm_msg = JointState(name=list(ARM_SDK_JOINT_NAMES[3:5]), position=[0.3, 0.2])
-        rows.append(("node CPU, ~/arm_cmd at 50 Hz (arm_sdk frames at 50 Hz)",
-                     cpu_percent(node.proc.pid, seconds, paced(lambda: arm.publish(arm_msg), 50))))
+        summary["arm_50hz_pct"] = cpu("node CPU, ~/arm_cmd at 50 Hz (arm_sdk frames at 50 Hz)",
+                                      cpu_percent(node.proc.pid, seconds, paced(lambda: arm.publish(arm_msg), 50)))
         time.sleep(4.0)  # the arms ramp out
     finally:
         stop_node(bench, node)
+    raw = raw_stream("rt/arm_sdk", 50.0, seconds)  # the robot stays in the sport service: arm_sdk frames count
+    summary["raw_arm_50hz_pct"] = cpu("  raw SDK publisher CPU, rt/arm_sdk at 50 Hz (its own process)", raw["cpu_pct"])
+
     node = fresh_node(bench, "low_level")
     try:
         low = bench.publisher(JointCommand, f"{NODE}/lowcmd")
-        n = len(JOINT_NAMES)
-        low_msg = JointCommand(name=list(JOINT_NAMES), q=[0.0] * n, dq=[0.0] * n, tau=[0.0] * n, kp=[0.0] * n,
-                               kd=[2.0] * n)  # fmt: skip
         time.sleep(1.0)
-        rows.append(("node CPU, LOW_LEVEL, no commands (damping frames at 50 Hz)", cpu_percent(node.proc.pid, seconds)))
-        rows.append(("node CPU, LOW_LEVEL, ~/lowcmd at 500 Hz",
-                     cpu_percent(node.proc.pid, seconds, paced(lambda: low.publish(low_msg), 500))))
+        summary["lowlevel_idle_pct"] = cpu("node CPU, LOW_LEVEL, no commands (damping frames at 50 Hz)",
+                                           cpu_percent(node.proc.pid, seconds))
+        sends: list[tuple[float, float]] = []
+
+        def publish() -> None:
+            seq = len(sends)
+            message = _lowcmd_message(seq)
+            sends.append((message.kp[0], time.monotonic()))
+            low.publish(message)
+
+        summary["lowcmd_500hz_pct"] = cpu("node CPU, LOW_LEVEL, ~/lowcmd at 500 Hz",
+                                          cpu_percent(node.proc.pid, seconds, paced(publish, 500)))
+        latency, jitter = stream_timing(sim, sends, "lowcmd", 0.002)
     finally:
         stop_node(bench, node)
-    return rows
+    raw = raw_stream("rt/lowcmd", 500.0, seconds)  # the robot stays released: rt/lowcmd frames count
+    summary["raw_lowcmd_500hz_pct"] = cpu("  raw SDK publisher CPU, rt/lowcmd at 500 Hz (its own process)",
+                                          raw["cpu_pct"])
+    raw_latency, raw_jitter = stream_timing(sim, [tuple(p) for p in raw["sends"]], "lowcmd", 0.002)
+    rows += [("~/lowcmd 500 Hz: publish -> rt/lowcmd frame received", latency.text()),
+             ("  raw SDK publisher: Write -> rt/lowcmd frame received", raw_latency.text()),
+             ("~/lowcmd 500 Hz: |gap - 2 ms| between frames at the robot", jitter.text()),
+             ("  raw SDK publisher: |gap - 2 ms| between frames at the robot", raw_jitter.text())]
+    summary.update(lowcmd_p99_ms=latency.p99(), raw_lowcmd_p99_ms=raw_latency.p99(), lowcmd_jitter_p99_ms=jitter.p99(),
+                   raw_lowcmd_jitter_p99_ms=raw_jitter.p99())
+    return rows, summary
 
 
 def cpu_only(seconds: float) -> int:
-    """The CPU rows alone, printed as the full run prints them."""
+    """The CPU rows alone (with their raw references), printed as the full run prints them."""
     from g1_mode_manager.protocol.dds import init_channels
 
     init_channels(SDK_DOMAIN, "lo")
     ros = RosClient("bench")
     sim = Sim(gantry=True)
     try:
-        for name, value in cpu_rows(Bench(ros), seconds):
-            print(f"{name:<60} {value:5.1f} % of one core", flush=True)
+        rows, summary = cpu_rows(Bench(ros), sim, seconds)
     finally:
         ros.close()
         sim.stop()
+    width = max(len(r[0]) for r in rows)
+    for name, value in rows:
+        print(f"{name:<{width}}  {value}", flush=True)
+    print("STREAMS " + " ".join(f"{k}={v:.2f}" for k, v in summary.items()))
     return 0
 
 
@@ -568,12 +641,9 @@ def main(argv: list[str] | None = None) -> int:
         sim.stop()
 
         sim = Sim(gantry=True)
-        for name, value in cpu_rows(bench, args.cpu_seconds):
-            rows.append((name, f"{value:5.1f} % of one core"))
-            if name == "node CPU, HIGH_LEVEL walking, no commands":
-                summary["cpu_idle_pct"] = value
-            elif name == "node CPU, /cmd_vel at 100 Hz":
-                summary["cpu_100hz_pct"] = value
+        stream_rows, stream_summary = cpu_rows(bench, sim, args.cpu_seconds)
+        rows += stream_rows
+        summary.update(stream_summary)
     finally:
         ros.close()
         sim.stop()
@@ -590,10 +660,15 @@ def main(argv: list[str] | None = None) -> int:
              ("cmd_vel median <= raw Move median + 0.5 ms",
               summary["cmd_vel_median_ms"] <= summary["raw_move_median_ms"] + 0.5),
              ("cmd_vel p99 <= raw Move p99 + 2 ms", summary["cmd_vel_p99_ms"] <= summary["raw_move_p99_ms"] + 2.0),
-             ("idle CPU <= 2 %", summary["cpu_idle_pct"] <= 2.0), ("100 Hz CPU <= 6 %", summary["cpu_100hz_pct"] <= 6.0)]
+             ("idle CPU <= 2 %", summary["cpu_idle_pct"] <= 2.0), ("100 Hz CPU <= 6 %", summary["cpu_100hz_pct"] <= 6.0),
+             ("~/lowcmd 500 Hz CPU <= half the raw SDK publisher's",
+              summary["lowcmd_500hz_pct"] <= 0.5 * summary["raw_lowcmd_500hz_pct"]),
+             ("~/lowcmd p99 <= raw p99 + 1 ms", summary["lowcmd_p99_ms"] <= summary["raw_lowcmd_p99_ms"] + 1.0)]
     print("goals: " + ", ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in goals))
     keys = ("estop_damp_p99_ms", "raw_rpc_p99_ms", "cmd_vel_median_ms", "cmd_vel_p99_ms", "raw_move_median_ms",
-            "raw_move_p99_ms", "cpu_idle_pct", "cpu_100hz_pct")
+            "raw_move_p99_ms", "cpu_idle_pct", "cpu_100hz_pct", "lowcmd_500hz_pct", "raw_lowcmd_500hz_pct",
+            "lowcmd_p99_ms", "raw_lowcmd_p99_ms", "arm_50hz_pct", "raw_arm_50hz_pct", "lowlevel_idle_pct",
+            "lowcmd_jitter_p99_ms", "raw_lowcmd_jitter_p99_ms")
     print("SUMMARY " + " ".join(f"{k}={summary[k]:.2f}" for k in keys))
     return 0
 

@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
+from math import isfinite
+from operator import le
 
 from g1_mode_manager.core.port import MotorCommand
 from g1_mode_manager.protocol.motors import (
@@ -25,11 +28,51 @@ class JointCommandError(ValueError):
     """A joint command that must not be sent; the message says why."""
 
 
-@dataclass(frozen=True)
-class JointTargets:
-    """Validated per-joint commands, keyed by motor index."""
+@dataclass(frozen=True, slots=True)
+class JointFrame(Sequence[MotorCommand]):
+    """All 29 joints' commands, in motor order: the named ones (their motor ``indices`` and one column per
+    field, in the same order) as given, every other joint damped (kp 0, kd DAMPING_KD).
 
-    commands: dict[int, MotorCommand]
+    Held as columns so that a 500 Hz relay packs it without a MotorCommand per joint; indexing gives
+    MotorCommands for whoever wants them.
+    """
+
+    indices: tuple[int, ...]
+    q: tuple[float, ...]
+    dq: tuple[float, ...]
+    tau: tuple[float, ...]
+    kp: tuple[float, ...]
+    kd: tuple[float, ...]
+
+    def __len__(self) -> int:
+        return NUM_JOINTS
+
+    def __getitem__(self, motor: int) -> MotorCommand:  # type: ignore[override]
+        if not -NUM_JOINTS <= motor < NUM_JOINTS:
+            raise IndexError(motor)
+        motor %= NUM_JOINTS
+        if motor not in self.indices:
+            return _DAMPED
+        k = self.indices.index(motor)
+        return MotorCommand(q=self.q[k], dq=self.dq[k], tau=self.tau[k], kp=self.kp[k], kd=self.kd[k])
+
+    @property
+    def damping(self) -> bool:
+        """Every joint damped (no joint named)."""
+        return not self.indices
+
+    @staticmethod
+    def of(commands: Sequence[MotorCommand]) -> JointFrame:
+        """29 MotorCommands (motor order) as a frame naming every joint."""
+        if len(commands) != NUM_JOINTS:
+            raise JointCommandError(f"expected {NUM_JOINTS} motor commands, got {len(commands)}")
+        return JointFrame(tuple(range(NUM_JOINTS)), *(tuple(float(getattr(c, f)) for c in commands)
+                                                      for f in ("q", "dq", "tau", "kp", "kd")))  # fmt: skip
+
+
+_DAMPED = MotorCommand(kd=DAMPING_KD)
+#: Every joint soft: kp 0, kd > 0 (what silence on rt/lowcmd turns into).
+DAMPING = JointFrame((), (), (), (), (), ())
 
 
 def _check_lengths(names: Sequence[str], fields: dict[str, Sequence[float]], allow_empty: set[str]) -> None:
@@ -53,8 +96,20 @@ def _check_names(names: Sequence[str], allowed: Sequence[str]) -> list[int]:
     return [JOINT_INDEX[n] for n in names]
 
 
-def _value(values: Sequence[float], i: int) -> float:
-    return float(values[i]) if len(values) else 0.0
+@lru_cache(maxsize=64)
+def _indices(names: tuple[str, ...], allowed: tuple[str, ...]) -> tuple[tuple[int, ...], tuple[float, ...]]:
+    """(motor indices, effort limits) of a list of names; checked once per distinct list (a controller sends the
+    same names every time). Raises JointCommandError (and caches nothing) for a bad list."""
+    indices = tuple(_check_names(names, allowed))
+    return indices, tuple(EFFORT_LIMIT_NM[i] for i in indices)
+
+
+def _column(values: Sequence[float], n: int) -> tuple[float, ...]:
+    return tuple(map(float, values)) if len(values) else (0.0,) * n
+
+
+def _within(values: tuple[float, ...], high: float) -> bool:
+    return all(map(isfinite, values)) and min(values) >= 0.0 and max(values) <= high
 
 
 def validate_joint_command(
@@ -66,22 +121,42 @@ def validate_joint_command(
     kd: Sequence[float],
     *,
     allowed: Sequence[str],
-) -> JointTargets:
-    """Check names, lengths, finiteness, gain and torque bounds; dq and tau may be empty (zero)."""
+) -> JointFrame:
+    """Check names, lengths, finiteness, gain and torque bounds; dq and tau may be empty (zero).
+
+    Whole columns are checked at once (C builtins over tuples: cheap enough for every message of a 500 Hz
+    stream); only a refused command is looked at joint by joint, to say which joint and why.
+    """
+    n = len(names)
+    if n and len(q) == n and len(kp) == n and len(kd) == n and len(dq) in (0, n) and len(tau) in (0, n):
+        indices, limits = _indices(tuple(names), tuple(allowed))
+        cols = (_column(q, n), _column(dq, n), _column(tau, n), _column(kp, n), _column(kd, n))
+        qc, dqc, tauc, kpc, kdc = cols
+        if (all(map(isfinite, qc)) and all(map(isfinite, dqc)) and all(map(isfinite, tauc))
+                and _within(kpc, MAX_KP) and _within(kdc, MAX_KD) and all(map(le, map(abs, tauc), limits))):
+            return JointFrame(indices, *cols)
+    _explain(names, q, dq, tau, kp, kd, allowed)
+    raise JointCommandError("joint command refused")  # the explanation always raises; never forward on doubt
+
+
+def _explain(names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau: Sequence[float],
+             kp: Sequence[float], kd: Sequence[float], allowed: Sequence[str]) -> None:  # fmt: skip
+    """Raise JointCommandError naming the first problem, joint by joint (a refused command only)."""
     _check_lengths(names, {"q": q, "dq": dq, "tau": tau, "kp": kp, "kd": kd}, allow_empty={"dq", "tau"})
     indices = _check_names(names, allowed)
-    commands: dict[int, MotorCommand] = {}
     for i, motor in enumerate(indices):
         cmd = MotorCommand(q=_value(q, i), dq=_value(dq, i), tau=_value(tau, i), kp=_value(kp, i), kd=_value(kd, i))
-        if not all(math.isfinite(v) for v in (cmd.q, cmd.dq, cmd.tau, cmd.kp, cmd.kd)):
+        if not all(isfinite(v) for v in (cmd.q, cmd.dq, cmd.tau, cmd.kp, cmd.kd)):
             raise JointCommandError(f"non-finite value for {names[i]}: {cmd}")
         if not 0.0 <= cmd.kp <= MAX_KP or not 0.0 <= cmd.kd <= MAX_KD:
             raise JointCommandError(f"gains of {names[i]} out of range (0 <= kp <= {MAX_KP}, 0 <= kd <= {MAX_KD})")
         if abs(cmd.tau) > EFFORT_LIMIT_NM[motor]:
             limit = EFFORT_LIMIT_NM[motor]
             raise JointCommandError(f"tau {cmd.tau} of {names[i]} exceeds its effort limit {limit} N m")
-        commands[motor] = cmd
-    return JointTargets(commands)
+
+
+def _value(values: Sequence[float], i: int) -> float:
+    return float(values[i]) if len(values) else 0.0
 
 
 def validate_lowcmd(
@@ -91,8 +166,8 @@ def validate_lowcmd(
     tau: Sequence[float],
     kp: Sequence[float],
     kd: Sequence[float],
-) -> JointTargets:
-    """Low-level commands may name any of the 29 joints."""
+) -> JointFrame:
+    """Low-level commands may name any of the 29 joints; the joints not named are damped."""
     return validate_joint_command(names, q, dq, tau, kp, kd, allowed=JOINT_NAMES)
 
 
@@ -112,14 +187,6 @@ def validate_arm_targets(names: Sequence[str], positions: Sequence[float]) -> di
     return out
 
 
-def damping_frame() -> list[MotorCommand]:
+def damping_frame() -> JointFrame:
     """All 29 joints soft: kp 0, kd > 0 (what silence on rt/lowcmd turns into)."""
-    return [MotorCommand(kd=DAMPING_KD) for _ in range(NUM_JOINTS)]
-
-
-def full_frame(targets: JointTargets) -> list[MotorCommand]:
-    """29 commands in motor order: the named joints as given, the others damped."""
-    frame = damping_frame()
-    for motor, cmd in targets.commands.items():
-        frame[motor] = cmd
-    return frame
+    return DAMPING

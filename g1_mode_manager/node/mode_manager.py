@@ -27,6 +27,7 @@ from g1_mode_manager.display.head_led import HeadLed, parse_looks
 from g1_mode_manager.node.body_supervision import BodySupervision
 from g1_mode_manager.node.diagnostics import build_diagnostics, walk_status
 from g1_mode_manager.node.estop import EstopEndpoint
+from g1_mode_manager.node.joint_command_cdr import JointCommandReader
 from g1_mode_manager.node.odometry import OdometryPublisher
 from g1_mode_manager.node.settings import Settings, declare_settings
 from g1_mode_manager.node.side_node import SideNode
@@ -133,7 +134,8 @@ class ModeManagerNode(Node):
         else:
             self._streams.subscribe(Twist, "cmd_vel", self._on_cmd_vel, raw=True)  # decoded by twist_cdr
         self._streams.subscribe(JointState, f"{under_main}/arm_cmd", self._on_arm_cmd)
-        self._streams.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd)
+        self._lowcmd_reader = JointCommandReader()
+        self._streams.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd, raw=True)  # joint_command_cdr
 
         # Periodic publications run on plain threads, not executor timers (same cost reason as above).
         self._state_out = [PeriodicWorker("mode_publisher", s.mode_publish_rate_hz, self._while_ok(self._publish_mode),
@@ -274,8 +276,8 @@ class ModeManagerNode(Node):
         self._lowstate_demand.update()  # the ramp starts from the measured pose
         self._arm_worker.wake()
 
-    def _on_lowcmd(self, msg: JointCommand) -> None:
-        self._lowcmd.submit(list(msg.name), list(msg.q), list(msg.dq), list(msg.tau), list(msg.kp), list(msg.kd))
+    def _on_lowcmd(self, data: bytes) -> None:
+        self._lowcmd.submit(*self._lowcmd_reader.fields(data))
 
     # --- state out -------------------------------------------------------------------------------
     def _while_ok(self, publish: Callable[[], None]) -> Callable[[float], None]:

@@ -8,9 +8,9 @@ import time
 from collections.abc import Callable, Sequence
 
 from g1_mode_manager.core import modes
-from g1_mode_manager.core.joint_commands import JointCommandError, damping_frame, full_frame, validate_lowcmd
+from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
+from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
@@ -60,12 +60,11 @@ class LowCmdRelay:
             self._events.log("error", "lowcmd_link", "lowcmd dropped: robot link lost")
             return "robot link lost"
         try:
-            targets = validate_lowcmd(names, q, dq, tau, kp, kd)
+            frame = validate_lowcmd(names, q, dq, tau, kp, kd)
         except JointCommandError as exc:
             self._events.count("lowcmd_rejected")
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
             return str(exc)
-        frame = full_frame(targets)
         deadman = self._deadman()
         with self._gate.forwarding(modes.allows_low_level_commands) as allowed:
             if allowed and deadman:
@@ -73,7 +72,7 @@ class LowCmdRelay:
                 return self._write(frame, "lowcmd_sent")
         if allowed:
             self._events.count("lowcmd_deadman_released")
-            self._write(damping_frame(), "damping_frames_sent")
+            self._write(DAMPING, "damping_frames_sent")
             return "dead-man key released: a damping frame was sent instead"
         return self._drop(f"mode is {self._gate.mode.name}")
 
@@ -82,7 +81,7 @@ class LowCmdRelay:
         if source is not Mode.LOW_LEVEL:
             return
         self._watchdog.reset()
-        sent = sum(self._write(damping_frame(), "exit_damping_frames_sent") is None for _ in range(EXIT_BURST))
+        sent = sum(self._write(DAMPING, "exit_damping_frames_sent") is None for _ in range(EXIT_BURST))
         if target is not Mode.HIGH_LEVEL:  # no SelectMode is under way or none has been seen to work yet
             with self._lock:
                 self._damp_until = self._clock() + self._exit_damping_s
@@ -118,19 +117,19 @@ class LowCmdRelay:
     def tick(self, _dt_s: float) -> None:
         if self._gate.allows_low_level_commands():
             if self._watchdog.expired() or not self._link.link_ok() or not self._deadman():
-                self._write(damping_frame(), "damping_frames_sent")
+                self._write(DAMPING, "damping_frames_sent")
             return
         if self._held_in_low_level():  # a body check holds motion: the user's controller is cut off
-            self._write(damping_frame(), "damping_frames_sent")
+            self._write(DAMPING, "damping_frames_sent")
         elif self._exit_damping_due():
-            self._write(damping_frame(), "exit_damping_frames_sent")
+            self._write(DAMPING, "exit_damping_frames_sent")
 
     def _drop(self, why: str) -> str:
         self._events.count("lowcmd_dropped")
         self._events.log("warn", "lowcmd_dropped", f"lowcmd dropped: {why}, joint commands pass only in LOW_LEVEL")
         return why
 
-    def _write(self, frame: list[MotorCommand], counter: str) -> str | None:
+    def _write(self, frame: JointFrame, counter: str) -> str | None:
         try:
             self._port.write_lowcmd(frame)
         except RobotError as exc:

@@ -5,12 +5,15 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Sequence
+from operator import attrgetter
 
 from g1_mode_manager.core.port import MotorCommand, RobotError
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, ARM_SDK_WEIGHT_INDEX, MOTOR_ENABLED
-from g1_mode_manager.sdk.frames import FrameWriter, LowCmdFrame, check_commands
+from g1_mode_manager.sdk.frames import FrameWriter, LowCmdFrame, check_columns
+
+_FIELDS = attrgetter("q", "dq", "tau", "kp", "kd")
 
 
 def build_arm_sdk_frame(frame: LowCmdFrame, targets: Sequence[MotorCommand], weight: float) -> LowCmdFrame:
@@ -18,11 +21,13 @@ def build_arm_sdk_frame(frame: LowCmdFrame, targets: Sequence[MotorCommand], wei
 
     Raises ValueError for a wrong count or a non-finite value (the weight included).
     """
-    check_commands("arm_sdk", targets, len(ARM_SDK_JOINTS))
+    if len(targets) != len(ARM_SDK_JOINTS):
+        raise ValueError(f"arm_sdk: expected {len(ARM_SDK_JOINTS)} motor commands, got {len(targets)}")
     if isinstance(weight, bool) or not isinstance(weight, int | float) or not math.isfinite(weight):
         raise ValueError(f"arm_sdk: weight must be a finite number, got {weight!r}")
-    for index, command in zip(ARM_SDK_JOINTS, targets, strict=True):
-        frame.set_motor(index, MOTOR_ENABLED, command)
+    columns = tuple(zip(*map(_FIELDS, targets), strict=True))  # (q..., dq..., tau..., kp..., kd...)
+    check_columns("arm_sdk", *columns)
+    frame.set_columns(ARM_SDK_JOINTS, MOTOR_ENABLED, columns)
     frame.set_q(ARM_SDK_WEIGHT_INDEX, min(1.0, max(0.0, float(weight))))
     return frame
 

@@ -1,23 +1,25 @@
-"""unitree_hg LowCmd_ frames held as flat values and published as ready-made CDR bytes.
+"""unitree_hg LowCmd_ frames held as their C struct in a numpy buffer and published as ready-made CDR bytes.
 
 cyclonedds-python's generic serialiser costs more per LowCmd_ (35 nested MotorCmd_) than the CRC
-itself, and a 500 Hz lowcmd relay cannot afford that. A frame here is the C struct's field values in order; one
-precompiled ``struct.Struct`` packs them for the CRC, and the CDR payload is the same bytes but for
-the padding before the first motor (CDR aligns MotorCmd_ by its first member, a uint8). The writer
-checks once, at creation, that its bytes equal cyclonedds' own serialisation, and otherwise falls
-back to writing LowCmd_ objects.
+itself, and a 500 Hz lowcmd relay cannot afford that, nor a Python call per motor. A frame here is the
+C struct itself: joint columns go in with one numpy assignment per field, the robot's CRC runs over it
+in C (numpy, zlib), and the CDR payload is the same bytes but for the padding before the first motor (CDR
+aligns MotorCmd_ by its first member, a uint8). The writer checks once, at creation, that its bytes
+equal cyclonedds' own serialisation, and otherwise falls back to writing LowCmd_ objects.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-import struct
 from collections.abc import Callable, Sequence
+from functools import lru_cache
 from typing import Any, Final
 
+import numpy as np
+
 from g1_mode_manager.core.port import MotorCommand
-from g1_mode_manager.protocol.crc import crc32_words
+from g1_mode_manager.protocol.crc import crc32_of_array, crc32_words
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
 from g1_mode_manager.protocol.dds import sdk_participant
 from g1_mode_manager.protocol.idl import LowCmd_, MotorCmd_
@@ -25,10 +27,14 @@ from g1_mode_manager.protocol.motors import NUM_MOTOR_SLOTS
 
 _log = logging.getLogger(__name__)
 
-_C_STRUCT: Final = struct.Struct("<2B2x" + "B3x5fI" * NUM_MOTOR_SLOTS + "5I")  # 1004 bytes, crc last
-_CRC_END: Final = _C_STRUCT.size - 4
-_PER_MOTOR: Final = 7  # mode, q, dq, tau, kp, kd, reserve
-_MOTOR0: Final = 2  # index of motor 0's mode in the flat values
+#: The C struct LowCmd_ (1004 bytes, crc last): what the robot's CRC runs over (all but the crc word).
+_MOTOR_DTYPE: Final = np.dtype([("mode", "u1"), ("_pad", "u1", (3,)), ("q", "<f4"), ("dq", "<f4"), ("tau", "<f4"),
+                                ("kp", "<f4"), ("kd", "<f4"), ("reserve", "<u4")])  # fmt: skip
+_C_DTYPE: Final = np.dtype([("mode_pr", "u1"), ("mode_machine", "u1"), ("_pad", "u1", (2,)),
+                            ("motor", _MOTOR_DTYPE, (NUM_MOTOR_SLOTS,)), ("reserve", "<u4", (4,)), ("crc", "<u4")])  # fmt: skip
+_CRC_END: Final = _C_DTYPE.itemsize - 4
+_CRC_WORDS: Final = _CRC_END // 4
+_FIELDS: Final = ("q", "dq", "tau", "kp", "kd")
 
 
 def check_commands(frame: str, commands: Sequence[MotorCommand], expected: int) -> None:
@@ -43,39 +49,83 @@ def check_commands(frame: str, commands: Sequence[MotorCommand], expected: int) 
             raise ValueError(f"{frame}: command {i} has a negative gain: {c}")
 
 
+def check_columns(frame: str, q: Sequence[float], dq: Sequence[float], tau: Sequence[float], kp: Sequence[float],
+                  kd: Sequence[float]) -> None:  # fmt: skip
+    """The same check over columns of floats, whole columns at a time (C builtins: cheap at 500 Hz)."""
+    if not all(all(map(math.isfinite, c)) for c in (q, dq, tau, kp, kd)):
+        raise ValueError(f"{frame}: a command has a non-finite value")
+    if (kp and min(kp) < 0) or (kd and min(kd) < 0):
+        raise ValueError(f"{frame}: a command has a negative gain")
+
+
+@lru_cache(maxsize=64)
+def _index_array(indices: tuple[int, ...]) -> np.ndarray | slice:
+    """Where a frame's columns go: a slice for the usual 0..n-1 in order (cheapest), else an index array."""
+    if indices == tuple(range(len(indices))):
+        return slice(0, len(indices))
+    return np.array(indices, dtype=np.intp)
+
+
 class LowCmdFrame:
-    """One LowCmd_ as its field values in C struct order (every motor disabled at first). Not thread-safe."""
+    """One LowCmd_ as its C struct in a numpy buffer (every motor disabled at first). Not thread-safe.
+
+    Columns of joint values go in with one numpy assignment per field; the CRC runs over the buffer in
+    place; the CDR payload is the same bytes but for the padding before the first motor.
+    """
 
     def __init__(self) -> None:
-        self.values: list[int | float] = [0, 0] + [0, 0.0, 0.0, 0.0, 0.0, 0.0, 0] * NUM_MOTOR_SLOTS + [0] * 5
+        self._buf = np.zeros(1, dtype=_C_DTYPE)
+        record = self._buf[0]
+        self._motor = record["motor"]
+        self._columns = {f: self._motor[f] for f in _FIELDS}
+        self._mode = self._motor["mode"]
+        self._bytes = self._buf.view(np.uint8)
 
     def set_header(self, mode_pr: int, mode_machine: int) -> None:
-        self.values[0], self.values[1] = int(mode_pr), int(mode_machine)
+        self._buf["mode_pr"], self._buf["mode_machine"] = int(mode_pr), int(mode_machine)
 
     def set_motor(self, index: int, mode: int, command: MotorCommand) -> None:
-        k = _MOTOR0 + _PER_MOTOR * index
-        self.values[k : k + 6] = (int(mode), float(command.q), float(command.dq), float(command.tau),
-                                  float(command.kp), float(command.kd))  # fmt: skip
+        self._motor[index] = (int(mode), (0, 0, 0), float(command.q), float(command.dq), float(command.tau),
+                              float(command.kp), float(command.kd), self._motor[index]["reserve"])  # fmt: skip
+
+    def set_columns(self, indices: tuple[int, ...], mode: int, columns: Sequence[Sequence[float]]) -> None:
+        """Motors ``indices`` get ``mode`` and the five columns (q, dq, tau, kp, kd), in that order."""
+        where = _index_array(indices)
+        self._mode[where] = mode
+        for field, values in zip(_FIELDS, columns, strict=True):
+            self._columns[field][where] = values
+
+    def set_all(self, count: int, mode: int, command: MotorCommand) -> None:
+        """Motors 0..count-1 all get ``mode`` and ``command``."""
+        self._mode[:count] = mode
+        for field in _FIELDS:
+            self._columns[field][:count] = getattr(command, field)
 
     def set_q(self, index: int, q: float) -> None:
-        self.values[_MOTOR0 + _PER_MOTOR * index + 1] = float(q)
+        self._columns["q"][index] = float(q)
+
+    def set_reserve(self, index: int, value: int) -> None:
+        self._buf["reserve"][0, index] = int(value)
 
     def pack(self) -> tuple[bytes, int]:
         """(the C struct's bytes up to the crc, the crc)."""
-        packed = _C_STRUCT.pack(*self.values)[:_CRC_END]
+        packed = self._bytes[:_CRC_END].tobytes()
         return packed, crc32_words(packed)
 
     def cdr(self, header: bytes) -> bytes:
         """The serialised sample: encapsulation ``header``, the fields, the crc."""
-        c, crc = self.pack()
-        return b"".join((header, c[:2], c[4:5], b"\0", c[8:], crc.to_bytes(4, "little")))
+        self._buf["crc"] = crc32_of_array(self._buf, _CRC_WORDS)
+        c = self._bytes.tobytes()
+        return b"".join((header, c[:2], c[4:5], b"\0", c[8:]))
 
     def to_message(self) -> LowCmd_:
         """The same frame as a LowCmd_ (crc set), for the SDK's APIs and for checks."""
-        v = self.values
-        motors = [MotorCmd_(*v[k : k + _PER_MOTOR]) for k in range(_MOTOR0, _MOTOR0 + _PER_MOTOR * NUM_MOTOR_SLOTS,
-                                                                      _PER_MOTOR)]  # fmt: skip
-        return LowCmd_(mode_pr=v[0], mode_machine=v[1], motor_cmd=motors, reserve=list(v[-5:-1]), crc=self.pack()[1])
+        m = self._motor
+        motors = [MotorCmd_(int(m["mode"][i]), *(float(m[f][i]) for f in _FIELDS), int(m["reserve"][i]))
+                  for i in range(NUM_MOTOR_SLOTS)]  # fmt: skip
+        return LowCmd_(mode_pr=int(self._buf["mode_pr"][0]), mode_machine=int(self._buf["mode_machine"][0]),
+                       motor_cmd=motors, reserve=[int(v) for v in self._buf["reserve"][0]],
+                       crc=self.pack()[1])  # fmt: skip
 
 
 class FrameWriter:
@@ -99,7 +149,7 @@ class FrameWriter:
             probe = LowCmdFrame()
             probe.set_header(0, 5)
             probe.set_motor(3, 1, MotorCommand(q=0.5, dq=-1.0, tau=2.0, kp=40.0, kd=1.0))
-            probe.values[-2] = 7  # reserve[3]
+            probe.set_reserve(3, 7)
             expected = probe.to_message().serialize(use_version_2=writer_use_version_2(self._writer))
             self._header = expected[:4]
             if probe.cdr(self._header) == expected:
@@ -113,12 +163,25 @@ class FrameWriter:
     def fast(self) -> bool:
         return self._raw is not None
 
+    def serialize(self, frame: LowCmdFrame) -> bytes | LowCmd_:
+        """``frame`` as this writer sends it (crc computed here), to be sent any number of times by
+        ``write_bytes``: a frame that never changes is made once."""
+        return frame.cdr(self._header) if self._raw is not None else frame.to_message()
+
     def write(self, frame: LowCmdFrame) -> bool:
         """Publish ``frame`` (crc computed here); False if DDS refused it."""
         try:
-            if self._raw is not None:
-                return self._raw(self._writer, frame.cdr(self._header))
-            self._writer.write(frame.to_message())
+            return self.write_bytes(self.serialize(frame))
+        except Exception:
+            _log.exception("write on %s failed", self.topic)
+            return False
+
+    def write_bytes(self, data: bytes | LowCmd_) -> bool:
+        """Publish what ``serialize`` made; False if DDS refused it."""
+        try:
+            if self._raw is not None and isinstance(data, bytes):
+                return self._raw(self._writer, data)
+            self._writer.write(data)
             return True
         except Exception:
             _log.exception("write on %s failed", self.topic)

@@ -31,6 +31,8 @@ from g1_mode_manager.sdk.voice_client import VoiceClient
 
 _log = logging.getLogger(__name__)
 P = TypeVar("P")
+#: A rt/lowstate sample younger than this makes reading rt/lf/lowstate (20 Hz) pointless for the body checks, s.
+FRESH_STATE_S = 0.01
 
 
 class UnitreeRobot:
@@ -236,8 +238,8 @@ class UnitreeRobot:
         best: StateSample | None = None
         now = time.monotonic()
         for reader, low_rate in ((self._lowstate, False), (self._lf_lowstate, True)):
-            if reader is None:
-                continue
+            if reader is None or (best is not None and best.age_s < FRESH_STATE_S):
+                continue  # a sample of the 500 Hz stream this fresh: the 20 Hz one cannot be newer
             snapshot, stamp, _ = reader.latest()
             if snapshot is not None and (best is None or now - stamp < best.age_s):
                 best = StateSample(snapshot.data, now - stamp, low_rate)

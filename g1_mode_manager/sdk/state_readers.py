@@ -15,7 +15,6 @@ import struct
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, Final, Generic, TypeVar
 
 from cyclonedds.core import Listener
@@ -39,6 +38,10 @@ _log = logging.getLogger(__name__)
 LATEST_ONLY_QOS: Final = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
 
 
+#: Reads closer together than this reuse the last one: "received" errs late by at most this much more, s.
+READ_GAP_S: Final = 0.002
+
+
 class LatestSample(Generic[T]):
     """The newest sample of one topic, taken when asked for and decoded once; its receive time and a count.
 
@@ -55,6 +58,7 @@ class LatestSample(Generic[T]):
         self._sample: T | None = None
         self._stamp = 0.0
         self._count = 0
+        self._read_at = float("-inf")
         self._errors = 0
         self._callback: Callable[[T], None] | None = None
         self._listener_lock = threading.Lock()
@@ -90,9 +94,16 @@ class LatestSample(Generic[T]):
         """Hook under the lock when a read found a new sample."""
 
     def latest(self) -> tuple[T | None, float, int]:
-        """(sample or None, its monotonic receive time, samples read so far)."""
+        """(sample or None, its monotonic receive time, samples read so far).
+
+        Reads Cyclone at most once per READ_GAP_S: one forwarded frame asks several times (link health,
+        mode_machine), and a 500 Hz stream would otherwise be taken and decoded for each of them.
+        """
         with self._lock:
-            self._read_locked()
+            now = time.monotonic()
+            if now - self._read_at >= READ_GAP_S:
+                self._read_at = now
+                self._read_locked()
             return self._sample, self._stamp, self._count
 
     @property
@@ -161,14 +172,27 @@ class LatestSample(Generic[T]):
             self._reader = None
 
 
-@dataclass(frozen=True)
 class LowStateSnapshot:
-    """What the node needs of one rt/lowstate, decoded straight from the wire; ``message()`` for the rest."""
+    """What the node needs of one rt/lowstate, decoded straight from the wire; ``message()`` for the rest.
 
-    mode_machine: int
-    tick: int
-    q: tuple[float, ...]  # the 29 joint positions in motor order
-    data: bytes  # the serialised sample
+    The joint positions are decoded on first use only: at 500 Hz most samples are read for their
+    mode_machine and tick alone (link health, frames).
+    """
+
+    __slots__ = ("_q", "data", "mode_machine", "tick")
+
+    def __init__(self, mode_machine: int, tick: int, data: bytes, q: tuple[float, ...] | None = None) -> None:
+        self.mode_machine = mode_machine
+        self.tick = tick
+        self.data = data  # the serialised sample
+        self._q = q
+
+    @property
+    def q(self) -> tuple[float, ...]:
+        """The 29 joint positions in motor order."""
+        if self._q is None:
+            self._q = _Q.unpack_from(self.data, _Q_AT)
+        return self._q
 
     def message(self) -> LowState_:
         return LowState_.deserialize(self.data)
@@ -189,7 +213,7 @@ def decode_lowstate(data: bytes) -> LowStateSnapshot:
     deserialisation costs far more, too much at 500 Hz)."""
     if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= _Q_AT + _Q.size:
         return LowStateSnapshot(mode_machine=data[_MODE_MACHINE_AT], tick=_TICK.unpack_from(data, _TICK_AT)[0],
-                                q=_Q.unpack_from(data, _Q_AT), data=data)  # fmt: skip
+                                data=data)  # fmt: skip
     msg = LowState_.deserialize(data)
     return LowStateSnapshot(mode_machine=int(msg.mode_machine), tick=int(msg.tick),
                             q=tuple(float(m.q) for m in msg.motor_state[:NUM_JOINTS]), data=data)  # fmt: skip

@@ -9,6 +9,7 @@ import pytest
 from fakes.fake_clock import FakeClock
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import SportState
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.lowstate_demand import HOLD_S, LowStateDemand
@@ -105,3 +106,17 @@ def test_link_without_lowstate_is_judged_by_sportmodestate_in_high_level_only(mo
         assert not LinkHealth(port, _Gate(mode), 0.5).report().ok  # the service's stream went silent
     else:
         assert not report.ok and "rt/lowstate" in report.reason
+
+
+@pytest.mark.parametrize("mode", list(Mode))
+def test_link_ok_answers_what_the_full_report_says(mode: Mode) -> None:
+    """link_ok (asked before every forwarded frame) is the report's verdict in every case, without the report."""
+    port = FakeRobotPort()
+    for receiving in (True, False):
+        for low in (None, 0.01, 0.49, 0.51, 30.0):
+            for sport in (None, 0.01, 0.51):
+                port.set_lowstate_wanted(receiving)
+                port.lowstate_age = low
+                port.sport = None if sport is None else SportState(4, 0, 0, 0.0, sport)
+                link = LinkHealth(port, _Gate(mode), 0.5)
+                assert link.link_ok() == link.report().ok, (receiving, low, sport)

@@ -7,7 +7,6 @@ import pytest
 from g1_mode_manager.core.joint_commands import (
     JointCommandError,
     damping_frame,
-    full_frame,
     validate_arm_targets,
     validate_lowcmd,
 )
@@ -15,8 +14,7 @@ from g1_mode_manager.protocol.motors import DAMPING_KD, JOINT_INDEX
 
 
 def test_valid_lowcmd_fills_the_frame_and_damps_the_rest() -> None:
-    targets = validate_lowcmd(["left_knee_joint"], [0.6], [], [2.0], [60.0], [2.0])
-    frame = full_frame(targets)
+    frame = validate_lowcmd(["left_knee_joint"], [0.6], [], [2.0], [60.0], [2.0])
     knee = frame[JOINT_INDEX["left_knee_joint"]]
     assert (knee.q, knee.dq, knee.tau, knee.kp, knee.kd) == (0.6, 0.0, 2.0, 60.0, 2.0)
     others = [c for i, c in enumerate(frame) if i != JOINT_INDEX["left_knee_joint"]]

@@ -6,6 +6,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -100,3 +101,9 @@ def test_benchmark_crc_cost(capsys: pytest.CaptureFixture[str]) -> None:
     with capsys.disabled():
         print("\nCRC cost per frame: " + ", ".join(f"{k} {v:.1f} us" for k, v in figures.items()))
     assert crc.lowcmd_crc(cmd) == sdk.Crc(cmd)
+
+
+@pytest.mark.parametrize("words", [1, 2, 250, 522])
+def test_the_crc_of_an_array_in_place_equals_the_byte_table_definition(words: int) -> None:
+    data = np.random.default_rng(words).integers(0, 256, 4 * words, dtype=np.uint8)
+    assert crc.crc32_of_array(data, words) == crc.crc32_words_py(data.tobytes()) == crc.crc32_words(data.tobytes())

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -48,7 +49,7 @@ def test_arm_sdk_frame_bytes_crc_and_weight(cmds: list[MotorCommand], weight: fl
     assert frame.cdr(expected[:4]) == expected
     assert msg.crc == CRC().Crc(msg)
     assert [m.mode for m in msg.motor_cmd] == [0] * 12 + [1] * 17 + [0] * 6
-    assert msg.motor_cmd[29].q == min(1.0, max(0.0, weight))
+    assert msg.motor_cmd[29].q == float(np.float32(min(1.0, max(0.0, weight))))  # float32 on the wire
 
 
 @settings(max_examples=40, deadline=None)

@@ -429,15 +429,6 @@ def test_lowstate_packing_matches_cyclonedds_and_sdk_crc() -> None:
     assert decoded.crc == CRC().Crc(decoded)
 
 
-@pytest.mark.parametrize("words", [1, 2, 250, 522])
-def test_fast_crc_equals_the_protocol_crc(words: int) -> None:
-    from g1_mode_manager.protocol.crc import crc32_words
-    from g1_sim.bridge.lowstate_codec import crc32_words_fast
-
-    data = np.random.default_rng(words).integers(0, 256, 4 * words, dtype=np.uint8)
-    assert crc32_words_fast(data) == crc32_words(data.tobytes())
-
-
 # --- pacing --------------------------------------------------------------------------------------
 
 

@@ -34,19 +34,22 @@ def tilt_of(w: float, x: float, y: float, z: float) -> float:
 
 
 def readings_of(fields: BodyFields, *, state_age_s: float | None, soc_pct: float | None) -> BodyReadings:
-    speeds = [abs(v) for v in fields.dq]
-    fastest = max(range(len(speeds)), key=speeds.__getitem__)
-    winding = max(range(len(fields.winding_c)), key=fields.winding_c.__getitem__)
-    casing = max(range(len(fields.casing_c)), key=fields.casing_c.__getitem__)
+    """Each maximum and where it is (the first motor holding it); C builtins over the tuples, as this runs
+    for every body check (100 Hz)."""
+    speeds = tuple(map(abs, fields.dq))
+    fastest = speeds.index(max(speeds))
+    winding, casing = fields.winding_c, fields.casing_c
+    hottest_winding = winding.index(max(winding))
+    hottest_casing = casing.index(max(casing))
     return BodyReadings(
         tilt_rad=tilt_of(*fields.quaternion),
-        gyro_max=max(abs(v) for v in fields.gyroscope),
+        gyro_max=max(map(abs, fields.gyroscope)),
         joint_speed_max=speeds[fastest],
         joint_fastest=fastest,
-        winding_max_c=float(fields.winding_c[winding]),
-        winding_hottest=winding,
-        casing_max_c=float(fields.casing_c[casing]),
-        casing_hottest=casing,
+        winding_max_c=float(winding[hottest_winding]),
+        winding_hottest=hottest_winding,
+        casing_max_c=float(casing[hottest_casing]),
+        casing_hottest=hottest_casing,
         soc_pct=soc_pct,
         state_age_s=state_age_s,
     )

@@ -11,12 +11,11 @@ start-up compares the result with cyclonedds' own deserialiser and the SDK's CRC
 
 from __future__ import annotations
 
-import zlib
 from typing import Final
 
 import numpy as np
 
-from g1_mode_manager.protocol.crc import lowstate_crc
+from g1_mode_manager.protocol.crc import crc32_of_array, lowstate_crc
 from g1_mode_manager.protocol.idl import IMUState_, LowState_, MotorState_
 from g1_mode_manager.protocol.motors import MODE_MACHINE_G1_29DOF, NUM_JOINTS, NUM_MOTOR_SLOTS
 from g1_mode_manager.protocol.remote import REMOTE_SIZE
@@ -39,20 +38,6 @@ _BODY_SIZE: Final = 2088
 # (CDR: 70) and every field from motor 0's q on lies 4 bytes later than in CDR.
 _C_IMU_END: Final = 70
 _CDR_MODE0: Final = 70
-
-
-# The robot's CRC is CRC-32/MPEG-2 (poly 0x04C11DB7, init ~0, no reflection, no final xor) over the
-# 32-bit words, each fed most significant byte first. zlib's CRC-32 is the reflected twin of the same
-# polynomial: over bit-reversed bytes it yields the bit-reversed register (plus its final xor). Faster
-# than the SDK's C loop.
-_BIT_REVERSED: Final = bytes(int(f"{b:08b}"[::-1], 2) for b in range(256))
-
-
-def crc32_words_fast(data: np.ndarray) -> int:
-    """The robot's CRC over ``data`` (uint8, little-endian 32-bit words, length a multiple of 4)."""
-    msb_first = data.view("<u4").astype(">u4").tobytes().translate(_BIT_REVERSED)
-    register = zlib.crc32(msb_first) ^ 0xFFFFFFFF
-    return int(f"{register:032b}"[::-1], 2)
 
 
 def _view(buf: np.ndarray, offset: int, dtype: str, count: int, stride: int) -> np.ndarray:
@@ -151,7 +136,7 @@ class LowStatePacker:
         c[:_C_IMU_END] = body[:_C_IMU_END]
         c[72] = body[_CDR_MODE0]
         c[76:] = body[72:_CRC]
-        return crc32_words_fast(c)
+        return crc32_of_array(c, c.size // 4)  # zlib over the bit-reversed words: a few us
 
 
 def _default_lowstate(mode_machine: int) -> LowState_:

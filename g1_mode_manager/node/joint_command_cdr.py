@@ -1,0 +1,91 @@
+"""g1_mode_manager_msgs/JointCommand from its serialised bytes: names and the five columns, without a message object.
+
+At 500 Hz rclpy's conversion into a JointCommand (29 Python strings, five arrays) and back into lists costs
+more than everything else the relay does. Here the bytes are read with ``struct``: a controller sends the
+same joint names in every message, so the names' bytes are compared with the last message's (one
+``startswith``, no decoding) and their tuple reused; the five float64 sequences are unpacked as tuples.
+Only plain little-endian CDR (what Fast DDS writes for ROS messages) is read this way; anything else,
+or bytes that do not parse, goes through rclpy's own deserialisation.
+"""
+
+from __future__ import annotations
+
+import struct
+from functools import lru_cache
+from typing import Final
+
+from g1_mode_manager_msgs.msg import JointCommand
+from rclpy.serialization import deserialize_message
+
+#: Encapsulation header + builtin_interfaces/Time: the names' sequence starts here.
+_NAMES_AT: Final = 4 + 8
+_U32: Final = struct.Struct("<I")
+_LITTLE_ENDIAN_PLAIN: Final = (b"\x00\x01",)  # CDR_LE (XCDR1): Fast DDS's encoding of ROS messages
+
+Fields = tuple[tuple[str, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...],
+               tuple[float, ...]]  # fmt: skip
+
+
+@lru_cache(maxsize=64)
+def _doubles(n: int) -> struct.Struct:
+    return struct.Struct(f"<{n}d")
+
+
+class JointCommandReader:
+    """Reads JointCommand bytes; remembers the last names. One per subscription (not thread-safe)."""
+
+    def __init__(self) -> None:
+        self._names_bytes = b""
+        self._names: tuple[str, ...] = ()
+
+    def fields(self, data: bytes) -> Fields:
+        """(names, q, dq, tau, kp, kd) of a serialised JointCommand."""
+        if data[:2] in _LITTLE_ENDIAN_PLAIN:
+            try:
+                return self._read(data)
+            except (struct.error, UnicodeDecodeError, ValueError):
+                pass  # not what it should be: rclpy says what it is
+        msg = deserialize_message(data, JointCommand)
+        return (tuple(msg.name), tuple(msg.q), tuple(msg.dq), tuple(msg.tau), tuple(msg.kp),
+                tuple(msg.kd))  # fmt: skip
+
+    def _read(self, data: bytes) -> Fields:
+        cached = self._names_bytes
+        if cached and data.startswith(cached, _NAMES_AT):
+            names, at = self._names, _NAMES_AT + len(cached)
+        else:
+            names, at = _read_names(data)
+            self._names_bytes, self._names = data[_NAMES_AT:at], names
+        columns = []
+        for _ in range(5):
+            at += -(at - 4) % 4  # CDR aligns relative to the payload, after the 4-byte header
+            (n,) = _U32.unpack_from(data, at)
+            at += 4
+            if n:
+                at += -(at - 4) % 8
+                if at + 8 * n > len(data):
+                    raise ValueError("sequence runs past the message")
+                columns.append(_doubles(n).unpack_from(data, at))
+                at += 8 * n
+            else:
+                columns.append(())
+        q, dq, tau, kp, kd = columns
+        return names, q, dq, tau, kp, kd
+
+
+def _read_names(data: bytes) -> tuple[tuple[str, ...], int]:
+    """The names and the offset just after them."""
+    (count,) = _U32.unpack_from(data, _NAMES_AT)
+    if count > len(data):
+        raise ValueError("name count runs past the message")
+    at = _NAMES_AT + 4
+    names = []
+    for _ in range(count):
+        at += -(at - 4) % 4
+        (size,) = _U32.unpack_from(data, at)  # with its NUL
+        at += 4
+        if size == 0 or at + size > len(data):
+            raise ValueError("string runs past the message")
+        names.append(data[at : at + size - 1].decode())
+        at += size
+    return tuple(names), at
