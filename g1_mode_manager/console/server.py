@@ -164,7 +164,7 @@ class ConsoleServer:
             if msg.type == WSMsgType.TEXT:
                 self._take(page, msg.data)
             elif msg.type == WSMsgType.BINARY:
-                await self._refuse(page, m.Refused(m.MALFORMED, "binary messages are not part of the protocol"))
+                self._refuse(page, m.Refused(m.MALFORMED, "binary messages are not part of the protocol"))
             elif msg.type == WSMsgType.ERROR:
                 # aiohttp has already closed the socket (1009 for a frame above FRAME_CAP_BYTES)
                 kind = m.OVERSIZED if "exceeds limit" in str(msg.data) else m.MALFORMED
@@ -180,7 +180,7 @@ class ConsoleServer:
         if not isinstance(parsed, m.Estop) and not page.bucket.take(now):
             parsed = m.Refused(m.FLOOD, f"more than {self._s.max_messages_per_s:g} messages a second")
         if isinstance(parsed, m.Refused):
-            self._spawn(self._refuse(page, parsed))
+            self._refuse(page, parsed)
         elif isinstance(parsed, m.Teleop):
             self._teleop.heard(page.id, parsed, now)
         elif isinstance(parsed, m.Estop):
@@ -197,16 +197,17 @@ class ConsoleServer:
         page.refused[kind] += 1
         self.refused[kind] += 1
 
-    async def _refuse(self, page: _PageSocket, refused: m.Refused) -> None:
+    def _refuse(self, page: _PageSocket, refused: m.Refused) -> None:
+        """Counted at once; the page is told about a few a second (a flood must not double itself in replies)."""
         self._count(page, refused.kind)
         if page.replies.take(self._clock()):
-            await self._send(page, {"type": "refused", "kind": refused.kind, "reason": refused.reason,
-                                    "count": sum(page.refused.values())})  # fmt: skip
+            self._spawn(self._send(page, {"type": "refused", "kind": refused.kind, "reason": refused.reason,
+                                          "count": sum(page.refused.values())}))  # fmt: skip
 
     def _call(self, page: _PageSocket, service: str, request: Any, what: str) -> None:
         """One call per service and page at a time (a second one is refused as busy); every page sees the answer."""
         if service in page.busy:
-            self._spawn(self._refuse(page, m.Refused(m.BUSY, f"{what}: the previous {service} has not been answered")))
+            self._refuse(page, m.Refused(m.BUSY, f"{what}: the previous {service} has not been answered"))
             return
         page.busy.add(service)
         self._spawn(self._answer(page, service, request, what))
