@@ -70,7 +70,7 @@ class RosBridge:
                          "clear_fault": node.create_client(Trigger, f"{manager}/clear_fault")}  # fmt: skip
         self._params_client = node.create_client(GetParameters, f"{manager}/get_parameters")
         self._params_pending = False
-        self._params_timer = node.create_timer(1.0, self._read_node_params)
+        self._params_timer = node.create_timer(0.25, self._read_node_params)  # until the node answers
 
     # --- state in ------------------------------------------------------------------------------------
     def _on_mode(self, msg: ModeMsg) -> None:
