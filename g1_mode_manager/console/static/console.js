@@ -225,7 +225,8 @@ function renderHealth(s) {
     $("tilt").textContent = body.tilt_rad === null ? "no data"
       : `${body.tilt_rad.toFixed(3)} rad (${(body.tilt_rad * 180 / Math.PI).toFixed(1)}°)`;
   } else {
-    for (const id of ["battery", "hottest", "tilt"]) $(id).textContent = "no body checks in /diagnostics";
+    $("battery").textContent = "no data (no body checks in /diagnostics)";
+    $("hottest").textContent = $("tilt").textContent = "no data";
   }
   $("odometry").textContent = s.odometry || "–";
   $("last-refusal").textContent = mode.last_refusal || "none";
