@@ -10,22 +10,12 @@ from collections.abc import Iterator
 
 import pytest
 
-from support.console import Console, FakeManager, RawPage, start_console
+from support.console import Console, FakeManager, RawPage, http_get, start_console
 from support.mode_manager import wait_until
 
 TOKEN = "correct-horse-battery-staple"
 DEADLINE_S = 0.3  # the console's heartbeat_deadline_s (default)
 PUBLISH_PERIOD_S = 0.05  # its publish_rate_hz 20
-
-
-def _get(url: str, headers: dict[str, str] | None = None) -> tuple[int, str]:
-    import aiohttp
-
-    async def go() -> tuple[int, str]:
-        async with aiohttp.ClientSession() as session, session.get(url, headers=headers or {}) as r:
-            return r.status, await r.text()
-
-    return asyncio.run(go())
 
 
 def _handshake_status(url: str, headers: dict[str, str] | None = None) -> int:
@@ -70,15 +60,15 @@ def test_with_a_token_every_request_without_it_gets_401_and_nothing_else(tmp_pat
     try:
         for url, headers in ((c.url, None), (c.url + "?token=wrong", None), (c.url + "nothing-here", None),
                              (c.url, {"Authorization": "Bearer wrong"}), (c.url + "?token=", None)):  # fmt: skip
-            status, body = _get(url, headers)
+            status, body = http_get(url, headers)
             assert status == 401, (url, status)
             assert "<html" not in body and "script" not in body  # nothing of the page
         assert _handshake_status(c.ws_url()) == 401
         assert _handshake_status(c.ws_url("wrong")) == 401
-        status, body = _get(c.url + f"?token={TOKEN}")
+        status, body = http_get(c.url + f"?token={TOKEN}")
         assert status == 200 and "E-STOP" in body
-        assert _get(c.url, {"Authorization": f"Bearer {TOKEN}"})[0] == 200
-        assert _get(c.url + f"nothing-here?token={TOKEN}")[0] == 404
+        assert http_get(c.url, {"Authorization": f"Bearer {TOKEN}"})[0] == 200
+        assert http_get(c.url + f"nothing-here?token={TOKEN}")[0] == 404
         page = RawPage(c.ws_url(TOKEN))
         try:
             assert page.wait_for(lambda m: m["type"] == "hello")["you"].startswith("console 1")
@@ -89,7 +79,7 @@ def test_with_a_token_every_request_without_it_gets_401_and_nothing_else(tmp_pat
 
 
 def test_pages_of_other_sites_and_rebound_host_names_are_refused(console: Console) -> None:
-    assert _get(console.url, {"Host": "rebound.example.com"})[0] == 403  # DNS rebinding onto 127.0.0.1
+    assert http_get(console.url, {"Host": "rebound.example.com"})[0] == 403  # DNS rebinding onto 127.0.0.1
     assert _handshake_status(console.ws_url(), {"Origin": "http://evil.example.com"}) == 403
     assert _handshake_status(console.ws_url(), {"Origin": f"http://127.0.0.1:{console.port}"}) == 101
 

@@ -8,7 +8,6 @@ page while driving and in EMERGENCY (the README's pictures: ``console_driving.pn
 
 from __future__ import annotations
 
-import asyncio
 import os
 import signal
 import time
@@ -21,7 +20,16 @@ from geometry_msgs.msg import Twist
 
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.protocol import api_ids
-from support.console import Console, RawPage, Twists, browser_missing, chromium, set_window_state, start_console
+from support.console import (
+    Console,
+    RawPage,
+    Twists,
+    browser_missing,
+    chromium,
+    http_get,
+    set_window_state,
+    start_console,
+)
 from support.mode_manager import wait_until
 from support.sim_record import SimRecord, damped, states, velocity_of
 
@@ -215,7 +223,7 @@ def test_killing_the_console_while_driving_lets_the_watchdog_stop_the_robot(rig:
 
 def test_a_wrong_token_is_refused_and_the_e_stop_damps_the_robot_and_shows_emergency(rig: Rig) -> None:
     r, d = rig, rig.driver
-    assert _get_status(r.console.url + "?token=wrong") == 401
+    assert http_get(r.console.url + "?token=wrong")[0] == 401
     d.get(r.console.url + "?token=wrong")
     assert "401" in d.find_element("tag name", "body").text
     assert not d.find_elements("id", "estop")  # nothing of the page
@@ -234,13 +242,3 @@ def test_a_wrong_token_is_refused_and_the_e_stop_damps_the_robot_and_shows_emerg
     assert r.stack.modes()[-1].name == "EMERGENCY" and r.stack.modes()[-1].damp_confirmed
     time.sleep(1.0 if r.shots else 0.0)
     _shot(r, "console_emergency.png")
-
-
-def _get_status(url: str) -> int:
-    import aiohttp
-
-    async def go() -> int:
-        async with aiohttp.ClientSession() as session, session.get(url) as response:
-            return response.status
-
-    return asyncio.run(go())

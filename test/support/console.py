@@ -52,6 +52,17 @@ def start_console(*params: str, timeout_s: float = 20.0) -> Console:
     return Console(proc, line.split(READY, 1)[1].split()[0])
 
 
+def http_get(url: str, headers: dict[str, str] | None = None) -> tuple[int, str]:
+    """(status, body) of one GET, as a script (not a browser) sends it."""
+    import aiohttp
+
+    async def go() -> tuple[int, str]:
+        async with aiohttp.ClientSession() as session, session.get(url, headers=headers or {}) as r:
+            return r.status, await r.text()
+
+    return asyncio.run(go())
+
+
 class RawPage:
     """A console page without a browser: a WebSocket on an event loop of its own, keeping every message it gets.
 

@@ -199,6 +199,10 @@ function renderHead(s) {
   }
   setBadge("consoles", `${s.consoles} console${s.consoles === 1 ? "" : "s"}` +
     (s.driving ? ` · ${s.driving} drives` : ""));
+  $("mode-note").textContent = !mode ? "" : {
+    EMERGENCY: "EMERGENCY is never left: make the robot safe, then restart the mode manager.",
+    FAULT: "FAULT: CLEAR FAULT goes to IDLE once every tripped check has been clear for a while.",
+  }[mode.name] || "";
   document.querySelectorAll("#modes button[data-mode]").forEach((b) => {
     b.classList.toggle("current", !!mode && b.dataset.mode.toUpperCase() === mode.name);
   });
@@ -222,8 +226,9 @@ function renderHealth(s) {
     const hot = [body.winding_max_c !== null ? `winding ${body.winding_max_c.toFixed(0)} °C` : null,
       body.casing_max_c !== null ? `casing ${body.casing_max_c.toFixed(0)} °C` : null].filter(Boolean);
     $("hottest").textContent = hot.length ? hot.join(", ") : "no data";
-    $("tilt").textContent = body.tilt_rad === null ? "no data"
-      : `${body.tilt_rad.toFixed(3)} rad (${(body.tilt_rad * 180 / Math.PI).toFixed(1)}°)`;
+    // the plot's source when it is fresher (IMU or odometry) than the body check's 1 Hz value
+    const tilt = s.sample && s.sample.tilt !== null ? s.sample.tilt : body.tilt_rad;
+    $("tilt").textContent = tilt === null ? "no data" : `${tilt.toFixed(3)} rad (${(tilt * 180 / Math.PI).toFixed(1)}°)`;
   } else {
     $("battery").textContent = "no data (no body checks in /diagnostics)";
     $("hottest").textContent = $("tilt").textContent = "no data";
