@@ -147,7 +147,7 @@ def test_one_page_drives_the_other_is_told_who_and_a_silent_page_lets_go(console
         time.sleep(1.0)
         last = manager.twists.seen[-1][0]
         print(f"last cmd_vel {1000 * (last - t_silent):.0f} ms after the driver's last heartbeat was sent")
-        assert last - t_silent <= DEADLINE_S + PUBLISH_PERIOD_S + 0.25, "a silent page went on driving"
+        assert last - t_silent <= DEADLINE_S + PUBLISH_PERIOD_S + 0.4, "a silent page went on driving"
         assert not manager.twists.since(t_silent + DEADLINE_S + 0.4)
         # its socket closes: the lock is free at once and the second page drives
         first.close()
