@@ -59,7 +59,7 @@ def main(args: list[str] | None = None) -> None:
             code = REFUSED
         else:
             spinner.start()
-            asyncio.run(_serve(*app))
+            code = asyncio.run(_serve(*app))
     finally:
         executor.shutdown(timeout_sec=1.0)
         if spinner.is_alive():
@@ -97,7 +97,8 @@ def _build(node):
     return node, settings, access, rules, teleop, RobotView(), manager, hello
 
 
-async def _serve(node, settings, access, rules, teleop, view, manager, hello) -> None:
+async def _serve(node, settings, access, rules, teleop, view, manager, hello) -> int:
+    """Serve until SIGINT or SIGTERM; the exit status (REFUSED if the address cannot be bound)."""
     from g1_mode_manager.console.bridge import RosBridge
     from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
     from g1_mode_manager.console.server import ConsoleServer
@@ -116,7 +117,12 @@ async def _serve(node, settings, access, rules, teleop, view, manager, hello) ->
     server = ConsoleServer(settings, access, rules, teleop, view, bridge, publisher, blocked, hello)
     server_ref.append(server)
     started = time.monotonic()
-    host, port = await server.start()
+    try:
+        host, port = await server.start()
+    except OSError as exc:  # the port is taken, the address is not this machine's
+        node.get_logger().fatal(f"refusing to start: cannot serve on {settings.host}:{settings.port}: {exc}")
+        await server.stop()
+        return REFUSED
     publisher.start()
     shown = f"[{host}]" if ":" in host else host
     token = " (add ?token=<the token> to open it)" if access.needs_token else ""
@@ -127,6 +133,7 @@ async def _serve(node, settings, access, rules, teleop, view, manager, hello) ->
     finally:
         publisher.stop()
         await server.stop()
+    return 0
 
 
 if __name__ == "__main__":

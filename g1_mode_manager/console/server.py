@@ -12,6 +12,8 @@ import asyncio
 import contextlib
 import itertools
 import json
+import math
+import sys
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -78,6 +80,7 @@ class ConsoleServer:
         self._wake = asyncio.Event()
         self._runner: web.AppRunner | None = None
         self._tasks: set[asyncio.Task] = set()
+        self._state_error_at = -math.inf
 
     # --- life ----------------------------------------------------------------------------------------
     def app(self) -> web.Application:
@@ -226,6 +229,8 @@ class ConsoleServer:
             answer.update(success=False, message=f"not sent: {exc}")
         except TimeoutError:
             answer.update(success=False, message=f"no answer within {ANSWER_TIMEOUT_S[service]:g} s")
+        except Exception as exc:  # whatever went wrong, the page is told, and the console serves on
+            answer.update(success=False, message=f"not sent: {exc!r}")
         finally:
             page.busy.discard(service)
         answer["after_s"] = round(self._clock() - sent, 3)
@@ -239,7 +244,13 @@ class ConsoleServer:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(self._wake.wait(), period)
             self._wake.clear()
-            await self._send_state()
+            try:
+                await self._send_state()
+            except Exception as exc:  # a bad sample must not end the pages' state for good
+                now = self._clock()
+                if now - self._state_error_at > 5.0:
+                    self._state_error_at = now
+                    print(f"[g1_console] state not sent: {exc!r}", file=sys.stderr, flush=True)
 
     async def _send_state(self) -> None:
         now = self._clock()

@@ -53,6 +53,21 @@ def test_a_bind_beyond_loopback_without_a_token_does_not_start() -> None:
         start_console("host:=0.0.0.0").proc.stop()
 
 
+def test_a_taken_port_is_refused_and_consoles_beyond_max_clients_get_503(console: Console) -> None:
+    with pytest.raises(RuntimeError, match="cannot serve on"):
+        start_console(f"port:={console.port}").proc.stop()
+    small = start_console("max_clients:=1")
+    try:
+        page = RawPage(small.ws_url())
+        try:
+            assert _handshake_status(small.ws_url()) == 503
+            assert page.wait_for(lambda m: m["type"] == "state" and m["refused"].get("clients") == 1)
+        finally:
+            page.close()
+    finally:
+        assert small.proc.stop() == 0
+
+
 def test_with_a_token_every_request_without_it_gets_401_and_nothing_else(tmp_path) -> None:
     token_file = tmp_path / "token"
     token_file.write_text(TOKEN + "\n")

@@ -48,6 +48,7 @@ function connect() {
   };
   ws.onclose = () => {
     connected = false;
+    teleop.letGo(); // after a reconnect, driving needs a fresh press
     renderConnection();
     renderTeleop();
     setTimeout(connect, retryMs);

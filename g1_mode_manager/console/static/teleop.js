@@ -64,6 +64,9 @@ class TeleopInput {
       if (!(k in KEY_AXES) || ev.ctrlKey || ev.metaKey || ev.altKey) return;
       ev.preventDefault();
       if (this.keys.has(k)) return; // auto-repeat: already held
+      // a key still held down through a let-go (blur, hidden page, lost socket) repeats, but must be pressed
+      // again to drive: nothing restarts motion by itself
+      if (ev.repeat) return;
       this.keys.add(k);
       document.querySelector(`kbd[data-key="${k}"]`)?.classList.add("down");
       this.beat();
