@@ -196,7 +196,8 @@ def main(argv: list[str] | None = None) -> int:
               "  .venv/bin/g1ctl mode --watch\n  .venv/bin/g1ctl set-mode high_level\n  .venv/bin/g1ctl loco start\n"
               "  .venv/bin/g1ctl drive\n  .venv/bin/g1ctl estop\n", flush=True)
         if console_url:
-            print(f"Operator console (the tour ended in EMERGENCY: restart to drive from it): {console_url}\n", flush=True)
+            print(f"Operator console: {console_url}" + ("" if args.no_tour else "  (the tour ended in EMERGENCY; to drive "
+                  "from the console, start without it: .venv/bin/g1_demo --no-tour)") + "\n", flush=True)
         if args.exit:
             return 0 if ok else 1
         while True:
