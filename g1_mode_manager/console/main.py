@@ -16,6 +16,16 @@ import signal
 import sys
 import threading
 import time
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # rclpy is imported only once the RMW is set (see _environment)
+    from rclpy.node import Node
+
+    from g1_mode_manager.console.access import Access
+    from g1_mode_manager.console.messages import MessageRules
+    from g1_mode_manager.console.robot_view import RobotView
+    from g1_mode_manager.console.settings import ConsoleSettings
+    from g1_mode_manager.console.teleop import Teleop
 
 #: The product's RMW (the mode manager's launch files set it for the node the same way).
 PRODUCT_RMW = "rmw_fastrtps_cpp"
@@ -70,7 +80,7 @@ def main(args: list[str] | None = None) -> None:
         raise SystemExit(code)
 
 
-def _build(node):
+def _build(node: Node) -> tuple | None:
     """Settings, access and the parts; None (logged) for a configuration that must not start."""
     from g1_mode_manager.console.access import Access, load_token
     from g1_mode_manager.console.messages import MessageRules
@@ -97,7 +107,8 @@ def _build(node):
     return node, settings, access, rules, teleop, RobotView(), manager, hello
 
 
-async def _serve(node, settings, access, rules, teleop, view, manager, hello) -> int:
+async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: MessageRules, teleop: Teleop,
+                 view: RobotView, manager: str, hello: dict[str, Any]) -> int:  # fmt: skip
     """Serve until SIGINT or SIGTERM; the exit status (REFUSED if the address cannot be bound)."""
     from g1_mode_manager.console.bridge import RosBridge
     from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
