@@ -10,6 +10,8 @@ setup(
     packages=find_packages(include=[package_name, package_name + ".*"])
     + find_packages("sim", include=["g1_sim", "g1_sim.*"]),
     package_dir={"g1_sim": "sim/g1_sim"},
+    # the operator console's page, inlined into one response at start
+    package_data={"g1_mode_manager.console": ["static/*.html", "static/*.css", "static/*.js"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
@@ -27,6 +29,7 @@ setup(
         "console_scripts": [
             "mode_manager = g1_mode_manager.node.main:main",
             "g1ctl = g1_mode_manager.cli.main:main",
+            "console = g1_mode_manager.console.main:main",
             "g1_demo = g1_mode_manager.demo:main",
             "sim_bridge = g1_sim.bridge.main:main",
         ],

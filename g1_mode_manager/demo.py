@@ -1,8 +1,10 @@
-"""g1_demo (make run): the simulated G1 and the mode manager, a short scripted tour, then yours to drive.
+"""g1_demo (make run): the simulated G1, the mode manager and the operator console, a short scripted tour, then
+yours to drive.
 
-Starts the MuJoCo sim bridge and the mode_manager node as two processes on loopback, walks the robot
-through HIGH_LEVEL -> Start -> cmd_vel -> E-STOP while printing what happens, then keeps both running
-for `g1ctl` in another terminal until Ctrl-C.
+Starts the MuJoCo sim bridge, the mode_manager node and the console (a web page) as three processes on
+loopback, walks the robot through HIGH_LEVEL -> Start -> cmd_vel -> E-STOP while printing what happens, then
+keeps them running for the console's page and `g1ctl` in another terminal until Ctrl-C. The console is only a
+client of the node: if it cannot start (its port taken), the rest runs on without it.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ class Child:
     def __init__(self, name: str, argv: list[str], ready_text: str, env: dict[str, str] | None = None) -> None:
         self.name = name
         self.ready = threading.Event()
+        self.ready_line = ""
         self._ready_text = ready_text
         self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1,
                                      start_new_session=True,
@@ -35,7 +38,8 @@ class Child:
         assert self.proc.stdout is not None
         for line in self.proc.stdout:
             print(f"[{self.name}] {line.rstrip()}", flush=True)
-            if self._ready_text in line:
+            if self._ready_text in line and not self.ready.is_set():
+                self.ready_line = line.strip()
                 self.ready.set()
 
     def wait_ready(self, timeout_s: float) -> None:
@@ -134,6 +138,23 @@ def scripted_tour(client: ManagerClient) -> bool:
     return steps_ok
 
 
+def _start_console(py: str, port: int, children: list[Child]) -> str | None:
+    """The operator console on 127.0.0.1, as the launch files run it; its URL, or None if it did not come up."""
+    if port < 0:
+        return None
+    console = Child("console", [py, "-u", "-m", "g1_mode_manager.console.main", "--ros-args", "-p", f"port:={port}"],
+                    "g1_console ready", env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})
+    children.append(console)
+    try:
+        console.wait_ready(15.0)
+    except (RuntimeError, TimeoutError) as exc:
+        print(f"WARN the operator console did not start ({exc}); the sim and the node run on without it", flush=True)
+        return None
+    url = console.ready_line.split("ready:", 1)[1].split()[0]
+    print(f"\nOperator console: {url}  (open it in a browser to watch the tour)\n", flush=True)
+    return url
+
+
 def _interrupt(_sig: int, _frame: object) -> None:
     raise KeyboardInterrupt
 
@@ -146,6 +167,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-tour", action="store_true", help="skip the scripted tour")
     parser.add_argument("--viewer", action="store_true", help="open MuJoCo's viewer on the sim (needs a display)")
     parser.add_argument("--exit", action="store_true", help="stop after the tour instead of waiting for Ctrl-C")
+    parser.add_argument("--console-port", type=int, default=8080,
+                        help="port of the operator console on 127.0.0.1 (0: any free port; -1: no console)")
     args = parser.parse_args(argv)
     default_discovery_to_localhost()
     signal.signal(signal.SIGTERM, _interrupt)
@@ -164,6 +187,7 @@ def main(argv: list[str] | None = None) -> int:
                      env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})  # fmt: skip
         children.append(node)
         node.wait_ready(30.0)
+        console_url = _start_console(py, args.console_port, children)
         ok = True
         with ManagerClient() as client:
             if not args.no_tour:
@@ -171,6 +195,9 @@ def main(argv: list[str] | None = None) -> int:
         print("\nThe simulated G1 and the mode manager are running. In another terminal:\n"
               "  .venv/bin/g1ctl mode --watch\n  .venv/bin/g1ctl set-mode high_level\n  .venv/bin/g1ctl loco start\n"
               "  .venv/bin/g1ctl drive\n  .venv/bin/g1ctl estop\n", flush=True)
+        if console_url:
+            print(f"Operator console: {console_url}" + ("" if args.no_tour else "  (the tour ended in EMERGENCY; to drive "
+                  "from the console, start without it: .venv/bin/g1_demo --no-tour)") + "\n", flush=True)
         if args.exit:
             return 0 if ok else 1
         while True:

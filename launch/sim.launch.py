@@ -1,11 +1,13 @@
 """The simulated G1 (MuJoCo, Unitree SDK2 DDS on loopback) and the mode manager that drives it.
 
-    ros2 launch g1_mode_manager sim.launch.py [domain:=0] [namespace:=] [speed:=1.0] [viewer:=false]
+    ros2 launch g1_mode_manager sim.launch.py [domain:=0] [namespace:=] [speed:=1.0] [viewer:=false] [console:=true]
 
 ``domain`` is the Unitree SDK2 (Cyclone DDS) domain of the robot side, not ROS_DOMAIN_ID. With a
 ``namespace`` (e.g. /g1_a) the node serves /g1_a/g1_mode_manager/set_mode, listens to /g1_a/cmd_vel;
 the sim publishes /g1_a/joint_states and its ground truth /g1_a/g1_sim_bridge/odom; /estop stays global (the
-fleet-wide button), and so does the sim's /clock. For two robots, launch twice with different ``domain`` and ``namespace``.
+fleet-wide button), and so does the sim's /clock. For two robots, launch twice with different ``domain`` and ``namespace``
+(and a different ``console_port``). The operator console (a web page, http://127.0.0.1:8080/) is on by default here:
+a sim is where a browser teleop is wanted first, and it binds to loopback only.
 """
 
 from __future__ import annotations
@@ -41,6 +43,12 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument("params_file", default_value=default_params, description="mode manager parameters"),
         DeclareLaunchArgument("odom_rate_hz", default_value="20.0",
                               description="odom + odom->pelvis TF from the robot's rt/lf/odommodestate, Hz (0 = off)"),
+        DeclareLaunchArgument("console", default_value="true", description="start the operator console (web page)"),
+        DeclareLaunchArgument("console_host", default_value="127.0.0.1",
+                              description="the console's bind address; beyond loopback it needs console_token_file"),
+        DeclareLaunchArgument("console_port", default_value="8080", description="the console's TCP port"),
+        DeclareLaunchArgument("console_token_file", default_value="",
+                              description="file whose first line is the token every console request must present"),
         DeclareLaunchArgument("joint_state_rate_hz", default_value="0.0",
                               description="mode manager joint_states/~/imu rate, Hz (0 = off: the sim publishes "
                                           "<namespace>/joint_states itself, from MuJoCo)"),
@@ -58,4 +66,11 @@ def generate_launch_description() -> LaunchDescription:
              # one DDS stack per process: never rmw_cyclonedds beside the SDK's Cyclone (node/one_dds_stack.py),
              # whatever the shell exports for the other nodes
              additional_env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}),
+        # a process of its own: its crash never touches the mode manager, which never depends on it
+        Node(package=PACKAGE, executable="console", namespace=namespace, output="screen",
+             condition=IfCondition(LaunchConfiguration("console")),
+             parameters=[{"host": LaunchConfiguration("console_host"),
+                          "port": ParameterValue(LaunchConfiguration("console_port"), value_type=int),
+                          "token_file": LaunchConfiguration("console_token_file")}],
+             additional_env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}),  # the product's RMW, as the node's
     ])  # fmt: skip

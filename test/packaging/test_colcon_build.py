@@ -36,8 +36,12 @@ def test_colcon_builds_both_packages(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "2 packages finished" in result.stdout
     install = tmp_path / "install"
-    for exe in ("mode_manager", "sim_bridge", "g1ctl"):
+    for exe in ("mode_manager", "sim_bridge", "g1ctl", "console"):
         assert (install / "g1_mode_manager" / "lib" / "g1_mode_manager" / exe).exists(), exe
+    # the console's page is package data: a build without it would serve nothing
+    site = next((install / "g1_mode_manager" / "lib").glob("python3*/site-packages"))
+    for page_file in ("index.html", "console.css", "plot.js", "teleop.js", "console.js"):
+        assert (site / "g1_mode_manager" / "console" / "static" / page_file).exists(), page_file
     assert (install / "g1_mode_manager" / "share" / "g1_mode_manager" / "config" / "mode_manager.yaml").exists()
     for launch_file in ("sim.launch.py", "robot.launch.py"):
         assert (install / "g1_mode_manager" / "share" / "g1_mode_manager" / "launch" / launch_file).exists(), launch_file

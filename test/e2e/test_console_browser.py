@@ -1,0 +1,245 @@
+"""The operator console in a real browser (Debian's Chromium, headless, driven by selenium) against the real
+mode manager and the real sim, judged on the sim's record.
+
+One stack, one console and one browser for the file; the tests run in file order, each leaving the robot as the
+next expects (walking on W, then stopped, then e-stopped). Set G1_CONSOLE_SCREENSHOTS=<folder> to also save the
+page while driving and in EMERGENCY (the README's pictures: ``console_driving.png``, ``console_emergency.png``).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from geometry_msgs.msg import Twist
+
+from g1_mode_manager.node.settings import Settings
+from g1_mode_manager.protocol import api_ids
+from support.console import (
+    Console,
+    RawPage,
+    Twists,
+    browser_missing,
+    chromium,
+    http_get,
+    set_window_state,
+    start_console,
+)
+from support.mode_manager import wait_until
+from support.sim_record import SimRecord, damped, states, velocity_of
+
+from .conftest import Stack
+
+MISSING = browser_missing()
+pytestmark = [pytest.mark.e2e, pytest.mark.sim, pytest.mark.skipif(MISSING is not None, reason=f"no browser: {MISSING}")]
+
+NODE = Settings()  # the mode manager's defaults, which the stack runs with
+WATCHDOG_S = NODE.cmd_vel_timeout_s
+ONE_RPC_S = NODE.rpc_timeout_s
+DEADLINE_S = 0.3  # the console's heartbeat_deadline_s
+PUBLISH_PERIOD_S = 0.05  # its publish_rate_hz
+TOKEN = "operator-token-for-the-test"
+W_SPEED = 0.5 * 0.5  # the W key: half of the console's max_vx 0.5 m/s
+
+
+@dataclass
+class Rig:
+    stack: Stack
+    console: Console
+    driver: object
+    twists: Twists
+    token_file: Path
+    shots: Path | None
+
+
+@pytest.fixture(scope="module")
+def rig(module_stack_factory, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Rig]:
+    stack = module_stack_factory(node_params=("odom_rate_hz:=20.0",))  # measured velocity and tilt for the plots
+    twists = Twists()
+    stack.ros.node.create_subscription(Twist, "/cmd_vel", twists, 100)  # what the console publishes, when
+    token_file = tmp_path_factory.mktemp("console") / "token"
+    token_file.write_text(TOKEN + "\n")
+    shots = os.environ.get("G1_CONSOLE_SCREENSHOTS")
+    console = start_console()
+    try:
+        with chromium() as driver:
+            r = Rig(stack, console, driver, twists, token_file, Path(shots) if shots else None)
+            yield r
+            console = r.console
+    finally:
+        code = console.proc.stop()
+        assert code in (0, -signal.SIGKILL), console.proc.output()[-3000:]
+
+
+def _text(driver, element_id: str) -> str:
+    from selenium.webdriver.common.by import By
+
+    return driver.find_element(By.ID, element_id).text
+
+
+def _click(driver, selector: str) -> float:
+    """Click; returns the time just before (what the click sets off can reach the robot before click() returns)."""
+    from selenium.webdriver.common.by import By
+
+    element = driver.find_element(By.CSS_SELECTOR, selector)
+    before = time.monotonic()
+    element.click()
+    return before
+
+
+def _keys(driver, *, down: str = "", up: str = "") -> float:
+    """Press or release keys; returns the time just before."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    chain = ActionChains(driver)
+    if up:
+        chain.key_up(up)
+    if down:
+        chain.key_down(down)
+    before = time.monotonic()
+    chain.perform()
+    return before
+
+
+def _page_shows(driver, element_id: str, predicate, timeout_s: float = 10.0) -> str:
+    assert wait_until(lambda: predicate(_text(driver, element_id)), timeout_s), \
+        f"#{element_id} shows {_text(driver, element_id)!r}"
+    return _text(driver, element_id)
+
+
+def _moves(record: SimRecord, since: float, *, stop: bool) -> list[dict]:
+    """SetVelocity requests the robot received since ``since``: StopMoves (0, 0, 0) or Moves."""
+    return [e for e in record.events(since) if e["k"] == "req" and e.get("api") == api_ids.LOCO_SET_VELOCITY
+            and (velocity_of(e) == [0.0, 0.0, 0.0]) == stop]  # fmt: skip
+
+
+def _shot(r: Rig, name: str) -> None:
+    if r.shots is not None:
+        r.shots.mkdir(parents=True, exist_ok=True)
+        r.driver.save_screenshot(str(r.shots / name))
+
+
+def _watchdog_stopped_the_robot(r: Rig, t_let_go: float, what: str) -> None:
+    """Judged on the record: the console's last cmd_vel within its heartbeat deadline of the let-go, then a
+    StopMove within the node's watchdog plus one RPC, and no Move after it."""
+    time.sleep(WATCHDOG_S + ONE_RPC_S + 0.3)
+    before = [t for t, *_ in r.twists.seen if t <= t_let_go + 1.0]
+    last_twist = before[-1]
+    # slack for a loaded machine: a page message taken late by the console's event loop counts from then
+    assert not r.twists.since(t_let_go + DEADLINE_S + PUBLISH_PERIOD_S + 0.4), f"{what}: cmd_vel went on"
+    stops = _moves(r.stack.record, last_twist, stop=True)
+    assert stops, f"{what}: no StopMove on the record after the console's last cmd_vel"
+    stop_at = stops[0]["t"]
+    moves = _moves(r.stack.record, t_let_go - 1.0, stop=False)
+    assert moves, f"{what}: the robot was not walking when the page let go"
+    last_move = moves[-1]["t"]
+    print(f"{what}: last cmd_vel {1000 * (last_twist - t_let_go):+.0f} ms, last Move {1000 * (last_move - t_let_go):+.0f}"
+          f" ms, StopMove {1000 * (stop_at - t_let_go):+.0f} ms after the page let go "
+          f"(StopMove {1000 * (stop_at - last_twist):.0f} ms after the last cmd_vel)")
+    assert stop_at - last_twist <= WATCHDOG_S + ONE_RPC_S, "the StopMove came later than the watchdog + one RPC"
+    assert stop_at - t_let_go <= DEADLINE_S + WATCHDOG_S + ONE_RPC_S, "the StopMove came too late after the let-go"
+    assert last_move < stop_at, "a Move reached the robot after the StopMove"
+
+
+def test_the_page_shows_the_mode_sets_high_level_starts_and_drives_on_w(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    modes = r.stack.modes()
+    assert wait_until(lambda: bool(modes), 10.0)
+    d.get(r.console.url)
+    _page_shows(d, "mode-name", lambda text: text == modes[-1].name)  # what ~/mode says
+    assert "connected" in _text(d, "conn")
+    t_click = _click(d, 'button[data-mode="high_level"]')
+    _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL", 20.0)
+    assert modes[-1].name == "HIGH_LEVEL"
+    assert "success=true" in _page_shows(d, "mode-answer", lambda text: "success=" in text)
+    assert any(e.get("api") == api_ids.MS_CHECK_MODE for e in r.stack.record.events(t_click) if e["k"] == "req")
+    assert r.stack.sim.get()["sport"]["mode"] == "ai"  # the sim's service, as the robot reports it
+    _click(d, 'button[data-verb="start"]')
+    assert "success=true" in _page_shows(d, "loco-answer", lambda text: "success=" in text, 10.0)
+    assert r.stack.sim.get()["sport"]["fsm_id"] == 500
+    t_w = _keys(d, down="w")
+    assert wait_until(lambda: bool(_moves(r.stack.record, t_w, stop=False)), 5.0), "W held: no Move reached the robot"
+    _page_shows(d, "teleop-status", lambda text: text.startswith("DRIVING"), 5.0)
+    assert all(vx == pytest.approx(W_SPEED) for _, vx, _, _ in r.twists.since(t_w))
+    time.sleep(4.0 if r.shots else 0.5)  # a few plot points
+    _shot(r, "console_driving.png")
+
+
+def test_a_second_console_is_told_who_drives_and_bad_input_leaves_driving_and_node_alone(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    me = _text(d, "you").removeprefix("you are ")
+    other = RawPage(r.console.ws_url())
+    try:
+        other.hold(vx=-1.0)  # the other page holds S as hard as it can
+        told = other.wait_for(lambda m: m["type"] == "state" and m["teleop"]["why_not"] == f"{me} drives", 5.0)
+        assert told["teleop"]["driver"] == me and not told["teleop"]["publishing"] and not told["teleop"]["you_drive"]
+        t_bad = time.monotonic()
+        for bad in ("{", '{"type": "launch_missiles"}', '{"type": "teleop"}', "x" * 5000, b"\x00"):
+            other.send(bad)
+        flood = ('{"type": "teleop", "visible": true, "focused": true, "vx": -1, "vy": 0, "wz": 0, "seq": 1}',)
+        other.send_many(list(flood) * 1000)  # the other page floods its S
+        time.sleep(1.0)
+        refused = other.wait_for(lambda m: m["type"] == "state" and m["your_refused"].get("flood", 0) >= 500)
+        print(f"the second console's refusals: {refused['your_refused']}")
+        assert all(refused["your_refused"].get(k, 0) >= 1 for k in ("malformed", "unknown", "bad_value", "oversized"))
+        assert all(vx == pytest.approx(W_SPEED) for _, vx, _, _ in r.twists.since(t_bad)), "the second console drove"
+        assert _moves(r.stack.record, time.monotonic() - 0.5, stop=False), "driving stopped"
+        assert all(velocity_of(e)[0] > 0 for e in _moves(r.stack.record, t_bad, stop=False))
+    finally:
+        other.close()
+    assert r.stack.node.alive() and r.console.proc.alive()
+    assert r.stack.modes()[-1].name == "HIGH_LEVEL"
+
+
+def test_a_hidden_page_stops_publishing_at_once_and_the_watchdog_stops_the_robot(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    assert _moves(r.stack.record, time.monotonic() - 0.5, stop=False), "not walking before the page is hidden"
+    t_hidden = time.monotonic()
+    set_window_state(d, "minimized")  # visibilitychange -> hidden, and a blur: as a phone's screen lock
+    assert d.execute_script("return document.visibilityState") == "hidden"
+    assert "STOPPED" in _page_shows(d, "teleop-status", lambda text: "STOPPED" in text, 2.0)
+    _watchdog_stopped_the_robot(r, t_hidden, "page hidden")
+    set_window_state(d, "normal")
+
+
+def test_killing_the_console_while_driving_lets_the_watchdog_stop_the_robot(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    t_w = _keys(d, up="w", down="w")  # the blur let go of W: press it again
+    assert wait_until(lambda: bool(_moves(r.stack.record, t_w, stop=False)), 5.0), "W held again: no Move"
+    time.sleep(0.5)
+    t_kill = time.monotonic()
+    os.killpg(r.console.proc.proc.pid, signal.SIGKILL)  # no goodbye: the process is simply gone
+    r.console.proc.proc.wait(5.0)
+    _watchdog_stopped_the_robot(r, t_kill, "console killed")
+    _page_shows(d, "conn", lambda text: "DISCONNECTED" in text, 5.0)
+    assert r.stack.node.alive()
+    _keys(d, up="w")
+    r.console = start_console(f"token_file:={r.token_file}")  # the next test: a console with a token
+
+
+def test_a_wrong_token_is_refused_and_the_e_stop_damps_the_robot_and_shows_emergency(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    assert http_get(r.console.url + "?token=wrong")[0] == 401
+    d.get(r.console.url + "?token=wrong")
+    assert "401" in d.find_element("tag name", "body").text
+    assert not d.find_elements("id", "estop")  # nothing of the page
+    d.get(r.console.url + f"?token={TOKEN}")
+    _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
+    t_estop = _click(d, "#estop")
+    answer = _page_shows(d, "estop-answer", lambda text: "success=" in text, 20.0)
+    assert "success=true" in answer and "damped" in answer, answer
+    assert any(damped(s) for s in states(r.stack.record.events(t_estop))), "the robot was never damped with 'ai'"
+    status = r.stack.sim.get()["sport"]
+    assert status["fsm_id"] == 1 and status["mode"] == "ai"
+    _page_shows(d, "mode-name", lambda text: text == "EMERGENCY", 5.0)
+    _page_shows(d, "damp", lambda text: text == "damp_confirmed", 5.0)
+    colour = "return getComputedStyle(document.getElementById('mode-name')).color"
+    assert wait_until(lambda: d.execute_script(colour) == "rgb(255, 0, 0)", 5.0), d.execute_script(colour)  # the LED's
+    assert r.stack.modes()[-1].name == "EMERGENCY" and r.stack.modes()[-1].damp_confirmed
+    time.sleep(1.0 if r.shots else 0.0)
+    _shot(r, "console_emergency.png")
