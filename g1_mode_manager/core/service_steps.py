@@ -23,16 +23,21 @@ def ensure_service_active(
     poll_interval_s: float,
     clock: Callable[[], float],
     sleep: Callable[[float], None],
+    on_selected: Callable[[], None] | None = None,
 ) -> bool:
     """Make sure a high-level service is active: SelectMode("ai") only if none is, then confirm.
 
     Returns True if SelectMode was sent: the robot then comes back limp, in zero torque.
+    ``on_selected`` runs the moment SelectMode answered, before the confirmation (the e-stop's Damp: from
+    then on no damping frame holds the robot, and a CheckMode round trip would leave it limp meanwhile).
     Raises StepTimeoutError if CheckMode still reports no service ``timeout_s`` after starting.
     """
     deadline = clock() + timeout_s
     if port.check_mode():
         return False
     port.select_mode(HIGH_LEVEL_SERVICE_NAME)
+    if on_selected is not None:
+        on_selected()
     while not port.check_mode():
         if clock() >= deadline:
             raise StepTimeoutError(f"high-level service still not active {timeout_s:g} s after SelectMode('ai')")

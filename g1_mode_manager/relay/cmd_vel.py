@@ -41,6 +41,8 @@ MOVE_BURST = 2
 #: A StopMove that got no answer is sent again up to this many times in all; after that the robot
 #: stops by itself when the last Move's lease (move_duration_s) runs out.
 STOP_ATTEMPTS = 5
+#: A transition out of HIGH_LEVEL waits at most this long for the StopMove before its first robot call (s).
+STOP_WAIT_S = 3.0
 
 
 class CmdVelRelay:
@@ -77,9 +79,12 @@ class CmdVelRelay:
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._stopped = threading.Event()
+        self._settled = threading.Condition()  # the sender notifies after every step; _stops under it
+        self._stops = 0  # stops (EMERGENCY, FAULT) begun: each ends a transition's wait for a StopMove
         self._thread = threading.Thread(target=self._run, name="cmd_vel_sender", daemon=True)
         # sender thread only:
         self._maybe_moving = False  # a non-zero Move may be running on the robot
+        self._move_in_flight = False  # a Move was written and its answer is awaited
         self._stop_reason: str | None = None  # a StopMove is owed
         self._stop_attempts = 0
         self._last_ack: float | None = None  # when the robot acknowledged the last Move
@@ -113,10 +118,42 @@ class CmdVelRelay:
             self._wake.set()
         return result
 
-    def on_leave(self, source: Mode, _target: Mode) -> None:
-        """Leave listener: leaving HIGH_LEVEL wakes the sender, which stops a running Move."""
-        if source is Mode.HIGH_LEVEL:
+    def on_leave(self, source: Mode, target: Mode) -> None:
+        """Leave listener: leaving HIGH_LEVEL wakes the sender, which stops a running Move.
+
+        HIGH_LEVEL -> LOW_LEVEL also waits, at most STOP_WAIT_S, until that StopMove is settled (acknowledged,
+        refused or given up), so that ReleaseMode never reaches the robot before it: the released robot would
+        otherwise answer it 3203 and keep the last Move's velocity for the moment it still walks. Going to
+        IDLE never waits (nothing follows that the StopMove could be overtaken by), nor does a stop
+        (EMERGENCY, FAULT), which also ends such a wait."""
+        if source is not Mode.HIGH_LEVEL:
+            return
+        if target in (Mode.EMERGENCY, Mode.FAULT):
+            with self._settled:
+                self._stops += 1
+                self._settled.notify_all()
             self._wake.set()
+            return
+        self._wake.set()
+        if target is Mode.LOW_LEVEL:
+            self._wait_stop_settled(target)
+
+    def _stop_owed(self) -> bool:
+        return self._maybe_moving or self._stop_reason is not None or self._move_in_flight
+
+    def _wait_stop_settled(self, target: Mode) -> None:
+        deadline = self._clock() + STOP_WAIT_S
+        with self._settled:
+            stops = self._stops
+            while self._stop_owed() and self._stops == stops and not self._stopped.is_set():
+                left = deadline - self._clock()
+                if left <= 0.0:
+                    self._events.log("error", "stop_move_unsettled",
+                                     f"leaving HIGH_LEVEL for {target.name}: StopMove not settled within "
+                                     f"{STOP_WAIT_S:g} s; going on (the robot stops by itself within "
+                                     f"{self._move_duration_s} s of the last Move)")
+                    return
+                self._settled.wait(left)
 
     def start(self) -> None:
         self._thread.start()
@@ -125,6 +162,8 @@ class CmdVelRelay:
         """Stop the sender; then a StopMove if the robot may be walking (bounded: two attempts)."""
         self._stopped.set()
         self._wake.set()
+        with self._settled:
+            self._settled.notify_all()
         if self._thread.is_alive():
             self._thread.join(timeout_s)
         if self._maybe_moving or self._stop_reason is not None:
@@ -147,6 +186,8 @@ class CmdVelRelay:
             except Exception as exc:  # a relay bug must not end the sender silently
                 if self._on_error is not None:
                     self._on_error(exc)
+            with self._settled:  # a transition may wait for a StopMove (on_leave)
+                self._settled.notify_all()
 
     def _refill(self) -> None:
         now = self._clock()
@@ -207,8 +248,12 @@ class CmdVelRelay:
             if not allowed:
                 return
             reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
+            self._move_in_flight = reply is not None
         if reply is not None:
-            self._settle_move(reply, v, now)
+            try:
+                self._settle_move(reply, v, now)
+            finally:
+                self._move_in_flight = False
 
     def _rest(self, why: str) -> None:
         """Nothing to send: a StopMove if one is owed, and the limiter starts again from standstill."""

@@ -35,7 +35,9 @@ EXPECTED_CALLS: dict[tuple[Mode, Mode], list[str]] = {
     (UN, EM): ["connect", "damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
     (ID, EM): ["damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
     (HI, EM): ["damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
-    (LO, EM): ["damp_no_reply", "check_mode", "select_mode", "check_mode", "damp", "check_mode", "get_fsm_id"],
+    # from LOW_LEVEL a DampNoReply the moment SelectMode answers, before its confirmation: the robot is limp then
+    (LO, EM): ["damp_no_reply", "check_mode", "select_mode", "damp_no_reply", "check_mode", "damp", "check_mode",
+               "get_fsm_id"],
     (EM, EM): ["damp_no_reply", "check_mode", "damp", "check_mode", "get_fsm_id"],
 }
 REFUSALS: dict[tuple[Mode, Mode], str] = {
@@ -310,8 +312,8 @@ def test_estop_from_high_level_reselects_a_service_released_behind_its_back() ->
     before = len(rig.robot.calls)
     outcome = rig.machine.estop()
     assert outcome.success, outcome
-    assert rig.robot.names(before) == ["damp_no_reply", "check_mode", "select_mode", "check_mode", "damp",
-                                       "check_mode", "get_fsm_id"]
+    assert rig.robot.names(before) == ["damp_no_reply", "check_mode", "select_mode", "damp_no_reply", "check_mode",
+                                       "damp", "check_mode", "get_fsm_id"]
     assert rig.robot.damped and rig.robot.service == ACTIVE
 
 
@@ -614,11 +616,12 @@ def test_a_second_estop_fires_at_once_and_joins_the_running_sequence() -> None:
     first, out1 = _in_thread(rig.machine.estop)
     assert hold.wait_entered()
     second, out2 = _in_thread(rig.machine.estop)
-    # the second fires its own DampNoReply at once, then joins the running sequence (no queueing)
+    # the second fires its own DampNoReply at once, then joins the running sequence (no queueing); the first
+    # sequence fired two already (its first shot, and one at SelectMode's answer: from LOW_LEVEL)
     deadline = time.monotonic() + 5
-    while rig.robot.names().count("damp_no_reply") < 2 and time.monotonic() < deadline:
+    while rig.robot.names().count("damp_no_reply") < 3 and time.monotonic() < deadline:
         time.sleep(0.001)
-    assert rig.robot.names().count("damp_no_reply") == 2
+    assert rig.robot.names().count("damp_no_reply") == 3
     hold.release()
     first.join(5)
     second.join(5)

@@ -35,9 +35,12 @@ def test_fields_equal_the_message(n, q, dq, tau, kp, kd, sec) -> None:
 
 def test_the_names_are_reused_only_while_they_are_the_same() -> None:
     reader = JointCommandReader()
-    first = reader.fields(serialize_message(_message(list(JOINT_NAMES), [0.1] * 29, [], [], [1.0] * 29, [2.0] * 29)))
+    data = serialize_message(_message(list(JOINT_NAMES), [0.1] * 29, [], [], [1.0] * 29, [2.0] * 29))
+    first = reader.fields(data)
     again = reader.fields(serialize_message(_message(list(JOINT_NAMES), [0.2] * 29, [], [], [1.0] * 29, [2.0] * 29, 7)))
-    assert again[0] is first[0] and again[1] == (0.2,) * 29
+    assert again[0] == first[0] and again[1] == (0.2,) * 29
+    if data[:2] == b"\x00\x01":  # the plain little-endian CDR that Fast DDS writes: the names' tuple is reused
+        assert again[0] is first[0]
     # a longer list that starts with the same names, and a shorter one: read anew
     longer = reader.fields(serialize_message(_message([*JOINT_NAMES, "x"], [0.0] * 30, [], [], [0.0] * 30, [0.0] * 30)))
     assert longer[0] == (*JOINT_NAMES, "x")

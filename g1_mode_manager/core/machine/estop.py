@@ -5,7 +5,8 @@ e-stops share one sequence.
 - Then it registers under the forward gate, waiting at most ``forward_wait_s`` for it: the mode becomes
   EMERGENCY, a running transition is preempted, the e-stop generation grows. No relay write and no
   robot-changing call starts after that point.
-- One thread at a time runs the sequence: make the high-level service active, Damp, wait until every
+- One thread at a time runs the sequence: make the high-level service active (a DampNoReply the moment
+  SelectMode answers: the released robot is limp from then until a Damp), Damp, wait until every
   robot-changing call that was in flight has landed (bounded), then verify on the robot (CheckMode names a
   service AND GetFsmId is Damp). Only that makes ``damp_confirmed`` true and the e-stop succeed; otherwise
   it re-selects and re-damps until its time budget ends. An e-stop arriving meanwhile fires its own
@@ -17,6 +18,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.machine.gate import ForwardGate
@@ -211,8 +213,9 @@ class Estop:
                     notes.append("a relay write under way at the e-stop did not finish in time")
                 remaining = max(timing.call_s, deadline - state.clock())
                 if ensure_service_active(calls, timeout_s=min(timing.select_s, remaining),
-                                         poll_interval_s=self._poll_interval_s, clock=state.clock, sleep=self._sleep):
-                    notes.append("SelectMode('ai') sent")
+                                         poll_interval_s=self._poll_interval_s, clock=state.clock, sleep=self._sleep,
+                                         on_selected=partial(self._damp_at_select, notes)):  # fmt: skip
+                    notes.append("SelectMode('ai') sent, DampNoReply at its answer")
                 calls.damp()
                 if not self._gate.wait_calls_landed(deadline):
                     notes.append("a robot call in flight did not return in time")
@@ -237,6 +240,9 @@ class Estop:
                 return EstopRun(covered, why, tuple(dict.fromkeys(notes)))
             notes.append(f"retrying: {why}")
             self._sleep(timing.retry_interval_s)
+
+    def _damp_at_select(self, notes: list[str]) -> None:
+        notes.extend(self.fire_damp_no_reply())
 
     def fire_damp_no_reply(self) -> list[str]:
         try:

@@ -1,0 +1,82 @@
+"""The last windows of leaving HIGH_LEVEL and of an e-stop from LOW_LEVEL, judged on the robot's record.
+
+Both windows are a few ms on loopback and long on a robot; the sim's delay faults make them long here:
+
+- HIGH_LEVEL -> LOW_LEVEL while walking: the StopMove must be settled before ReleaseMode reaches the robot
+  (SetVelocity answered 0.4 s late: a ReleaseMode sent at once would overtake it).
+- E-stop from LOW_LEVEL: SelectMode("ai") puts the released robot in zero torque; from then on no damping
+  frame holds it, only a Damp does. The time between the two (neither held) is measured and bounded
+  (CheckMode answered 0.3 s late: a Damp sent after the confirming CheckMode would come that much later).
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from g1_mode_manager.protocol import api_ids
+from support.mode_manager import wait_until
+from support.sim_record import requests, states, velocity_of
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+#: The longest the robot may spend with neither damping frames taking effect nor fsm Damp: the e-stop's
+#: Damp goes out the moment SelectMode answers (a few ms on loopback, ~0.1 s on a loaded machine).
+NEITHER_BOUND_S = 0.15
+
+
+def test_the_stop_move_is_settled_before_release_mode_reaches_the_robot(shared_stack_factory) -> None:
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.LOCO_SET_VELOCITY): 0.4}}, bridge_args=("--gantry",))
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 500, 5.0)
+    t_walk = time.monotonic()
+    stack.drive(0.3, 1.5)
+    moves = [e for e in requests(stack.record.events(t_walk), api_ids.LOCO_SET_VELOCITY, kind="done")
+             if velocity_of(e) != [0.0, 0.0, 0.0] and e["code"] == 0]
+    assert moves, "no Move was acknowledged: the scenario exercised nothing"
+
+    t0 = time.monotonic()
+    r = stack.set_mode("low_level")
+    assert r.success, r.message
+    time.sleep(0.6)  # a StopMove sent alongside ReleaseMode is answered by now too (0.4 s late)
+    events = stack.record.events(t0)
+    stop_done = [e["t"] for e in requests(events, api_ids.LOCO_SET_VELOCITY, kind="done")
+                 if velocity_of(e) == [0.0, 0.0, 0.0]]
+    release = [e["t"] for e in requests(events, api_ids.MS_RELEASE_MODE)]
+    assert release, "no ReleaseMode on the record"
+    assert stop_done, "no StopMove answered on the record"
+    stop_code = next(e["code"] for e in requests(events, api_ids.LOCO_SET_VELOCITY, kind="done")
+                     if velocity_of(e) == [0.0, 0.0, 0.0])
+    assert stop_done[0] < release[0], (f"ReleaseMode reached the robot {stop_done[0] - release[0]:.3f} s before "
+                                       "the StopMove was answered")
+    assert stop_code == 0, f"the StopMove was answered {stop_code}, not acknowledged"
+    print(f"StopMove answered {release[0] - stop_done[0]:.3f} s before ReleaseMode reached the robot; "
+          f"set_mode took {time.monotonic() - t0:.2f} s")
+
+
+def test_an_estop_from_low_level_damps_the_moment_the_service_answers(shared_stack_factory) -> None:
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_CHECK_MODE): 0.3}}, bridge_args=("--gantry",))
+    r = stack.set_mode("low_level")
+    assert r.success, r.message
+    time.sleep(0.3)  # LOW_LEVEL, the node's damping frames flowing
+
+    t0 = time.monotonic()
+    reply = stack.estop()
+    assert reply.success, reply.message
+    time.sleep(0.3)
+    events = stack.record.events(t0)
+    selected = [e["t"] for e in requests(events, api_ids.MS_SELECT_MODE, kind="done")]
+    assert selected, "no SelectMode on the record: the robot was not released"
+    t_selected = selected[0]
+    damped_at = [s["t"] for s in states(events) if s["t"] >= t_selected and s["fsm"] == 1 and s["svc"]]
+    assert damped_at, "the robot never showed Damp after SelectMode"
+    frames = [e["t"] for e in events if e["k"] == "frame" and e["topic"] == "lowcmd" and e["ok"]]
+    held_until = max((t for t in frames if t <= t_selected), default=None)
+    assert held_until is not None, "no damping frame took effect between the e-stop and SelectMode"
+    neither = damped_at[0] - t_selected
+    print(f"e-stop from LOW_LEVEL: last damping frame {1000 * (t_selected - held_until):.1f} ms before SelectMode "
+          f"answered; Damp shown {1000 * neither:.1f} ms after it (neither holding the robot)")
+    assert t_selected - held_until <= 0.1, "damping frames stopped long before the service took the robot"
+    assert neither <= NEITHER_BOUND_S, f"the robot was held by nothing for {neither:.3f} s"
