@@ -13,6 +13,7 @@ from g1_mode_manager.core.port import SportState
 from g1_mode_manager.protocol.remote import key_mask
 from g1_mode_manager.relay.body_watch import BodyWatch
 from g1_mode_manager.relay.events import RelayEvents
+from support.mode_manager import wait_until
 
 L2_B = key_mask(("L2", "B"))
 R2 = key_mask(("R2",))
@@ -94,7 +95,10 @@ def test_the_remote_combination_estops_once_per_press() -> None:
     calls = len(port.calls)
     _steps(watch, clock, 5)
     assert machine.mode is Mode.EMERGENCY
-    assert [c.name for c in port.calls[calls:]].count("damp_no_reply") == 1
+    assert wait_until(lambda: machine.status().damp_confirmed, 5.0), "the e-stop's sequence did not finish"
+    names = [c.name for c in port.calls[calls:]]
+    # one e-stop from LOW_LEVEL: one sequence (one SelectMode), its first shot and its Damp at SelectMode's answer
+    assert names.count("select_mode") == 1 and names.count("damp_no_reply") == 2, names
     assert sum("E-STOP from the robot's remote" in text for _, text in logs) == 1
 
 

@@ -117,7 +117,12 @@ def _stand_still(stack) -> None:
     stack.set_gantry(True)
     r = stack.set_mode("high_level")
     assert r.success or r.message.startswith("already in HIGH_LEVEL"), r.message
-    r = stack.loco("stand_up")
+    # hung from the gantry, a walking robot sways; while its sway reads as moving (fsm_mode 1) the node, and
+    # the controller itself (7301), refuse the lock stand: ask again, as an operator would, once it is still
+    deadline = time.monotonic() + 10.0
+    while not (r := stack.loco("stand_up")).success and time.monotonic() < deadline:
+        assert "dynamic" in r.message or r.code == 7301, r.message
+        time.sleep(0.3)
     assert r.success, r.message
     assert wait_until(lambda: _standing(stack), 15.0)
 
