@@ -11,10 +11,12 @@ before it believes the robot damped.
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 
 from g1_mode_manager.core.port import ModePort
+from g1_mode_manager.core.service_steps import StepTimeoutError
 
 #: note_service(known, active, preempted_flag): the machine's record of the high-level service.
 NoteService = Callable[[bool, bool, "threading.Event | None"], None]
@@ -35,6 +37,8 @@ class RunPort:
 
     ``call_timeout_s`` bounds the loco calls (Damp, GetFsmId), ``select_timeout_s`` the motion
     switcher's (CheckMode, SelectMode, ReleaseMode: seconds on a robot). None: the port's defaults.
+    ``until`` (a time on ``clock``) caps every call's timeout to the time left before it, and refuses a call
+    once it has passed (StepTimeoutError): the e-stop's answer must come by then whatever the robot does.
     """
 
     def __init__(
@@ -47,6 +51,8 @@ class RunPort:
         changing_call: ChangingCall = _untracked,
         call_timeout_s: float | None = None,
         select_timeout_s: float | None = None,
+        until: float | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self._port = port
         self._note_service = note_service
@@ -55,6 +61,16 @@ class RunPort:
         self._changing_call = changing_call
         self._call_timeout_s = call_timeout_s
         self._select_timeout_s = select_timeout_s
+        self._until = until
+        self._clock = clock
+
+    def _timeout(self, configured: float | None, what: str) -> float | None:
+        if self._until is None:
+            return configured
+        left = self._until - self._clock()
+        if left <= 0.0:
+            raise StepTimeoutError(f"{what} not sent: the time budget is spent")
+        return left if configured is None else min(configured, left)
 
     def _check(self, what: str) -> None:
         if self._preempted is not None and self._preempted.is_set():
@@ -67,7 +83,7 @@ class RunPort:
 
     def check_mode(self) -> str:
         self._check("check_mode")
-        name = self._port.check_mode(timeout_s=self._select_timeout_s)
+        name = self._port.check_mode(timeout_s=self._timeout(self._select_timeout_s, "CheckMode"))
         self._check("check_mode")
         self._note_service(True, bool(name), self._preempted)
         return name
@@ -76,24 +92,24 @@ class RunPort:
         self._check("select_mode")
         self._note_service(False, False, self._preempted)  # unknown until confirmed by CheckMode
         with self._changing_call(self._preempted):
-            self._port.select_mode(name, timeout_s=self._select_timeout_s)
+            self._port.select_mode(name, timeout_s=self._timeout(self._select_timeout_s, "SelectMode"))
         self._check("select_mode")
 
     def release_mode(self) -> None:
         self._check("release_mode")
         self._note_service(False, False, self._preempted)
         with self._changing_call(self._preempted):
-            self._port.release_mode(timeout_s=self._select_timeout_s)
+            self._port.release_mode(timeout_s=self._timeout(self._select_timeout_s, "ReleaseMode"))
         self._check("release_mode")
 
     def damp(self) -> None:
         self._check("damp")
-        self._port.damp(timeout_s=self._call_timeout_s)
+        self._port.damp(timeout_s=self._timeout(self._call_timeout_s, "Damp"))
         self._check("damp")
 
     def get_fsm_id(self) -> int:
         self._check("get_fsm_id")
-        fsm_id = self._port.get_fsm_id(timeout_s=self._call_timeout_s)
+        fsm_id = self._port.get_fsm_id(timeout_s=self._timeout(self._call_timeout_s, "GetFsmId"))
         self._check("get_fsm_id")
         return fsm_id
 

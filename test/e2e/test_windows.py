@@ -80,3 +80,30 @@ def test_an_estop_from_low_level_damps_the_moment_the_service_answers(shared_sta
           f"answered; Damp shown {1000 * neither:.1f} ms after it (neither holding the robot)")
     assert t_selected - held_until <= 0.1, "damping frames stopped long before the service took the robot"
     assert neither <= NEITHER_BOUND_S, f"the robot was held by nothing for {neither:.3f} s"
+
+
+#: The e-stop's own budget in this test (estop_timeout_s) and its call timeout (estop_call_timeout_s).
+ESTOP_TOTAL_S, ESTOP_CALL_S = 2.0, 0.5
+
+
+def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(shared_stack_factory) -> None:
+    """A SelectMode that never returns (held 30 s; the transitions wait 10 s for it, the e-stop's own SelectMode
+    5 s): the e-stop answers by estop_timeout_s + one call timeout, and says it is incomplete, never damped."""
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 30.0}}, bridge_args=("--gantry",),
+                                 node_params=(f"estop_timeout_s:={ESTOP_TOTAL_S}",
+                                              f"estop_call_timeout_s:={ESTOP_CALL_S}"))  # fmt: skip
+    assert stack.set_mode("low_level").success
+    t_call = time.monotonic()
+    import threading
+
+    threading.Thread(target=lambda: stack.set_mode("high_level"), daemon=True).start()
+    assert wait_until(lambda: requests(stack.record.events(t_call), api_ids.MS_SELECT_MODE), 5.0)
+    t0 = time.monotonic()
+    reply = stack.estop()
+    answered = time.monotonic() - t0
+    print(f"e-stop with a SelectMode that never returns: answered after {answered:.2f} s "
+          f"(budget {ESTOP_TOTAL_S} s + one call {ESTOP_CALL_S} s): {reply.message}")
+    assert answered <= ESTOP_TOTAL_S + ESTOP_CALL_S + 0.3, f"answered after {answered:.2f} s"
+    assert not reply.success and "e-stop incomplete" in reply.message, reply.message
+    # never claims more than is true: the robot was not damping when it answered
+    assert not any(s["fsm"] == 1 and s["svc"] for s in states(stack.record.events(t0))), "damped after all?"

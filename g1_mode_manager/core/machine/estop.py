@@ -190,17 +190,21 @@ class Estop:
                 self._cond.notify_all()
 
     # --- the sequence ----------------------------------------------------------------------------
-    def calls(self) -> RunPort:
-        """The port with the e-stop's own short timeouts, never the transitions' long ones."""
+    def calls(self, until: float | None = None) -> RunPort:
+        """The port with the e-stop's own short timeouts, never the transitions' long ones; with ``until``, no
+        call outlasts it."""
         return RunPort(self._port, self._state.note_service, self._sleep,
-                       call_timeout_s=self._timing.call_s, select_timeout_s=self._timing.select_s)
+                       call_timeout_s=self._timing.call_s, select_timeout_s=self._timing.select_s,
+                       until=until, clock=self._state.clock)  # fmt: skip
 
     def _sequence(self) -> EstopRun:
         """Service active, Damp, calls in flight landed, verified on the robot; retried until verified or
         the time budget is spent."""
         state, timing = self._state, self._timing
         deadline = state.clock() + timing.total_s
-        calls = self.calls()
+        # the answer comes by deadline + one call timeout: every call is cut short there, a SelectMode retried
+        # near the deadline included (its own timeout is seconds)
+        calls = self.calls(until=deadline + timing.call_s)
         notes: list[str] = []
         covered = state.current_gen()
         while True:
