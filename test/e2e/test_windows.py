@@ -11,6 +11,7 @@ Both windows are a few ms on loopback and long on a robot; the sim's delay fault
 
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
@@ -94,8 +95,6 @@ def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(sh
                                               f"estop_call_timeout_s:={ESTOP_CALL_S}"))  # fmt: skip
     assert stack.set_mode("low_level").success
     t_call = time.monotonic()
-    import threading
-
     threading.Thread(target=lambda: stack.set_mode("high_level"), daemon=True).start()
     assert wait_until(lambda: requests(stack.record.events(t_call), api_ids.MS_SELECT_MODE), 5.0)
     t0 = time.monotonic()
