@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
+from concurrent.futures import Future
+from typing import Any
 
 import pytest
 
@@ -25,6 +28,20 @@ pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 #: The longest the robot may spend with neither damping frames taking effect nor fsm Damp: the e-stop's
 #: Damp goes out the moment SelectMode answers (a few ms on loopback, ~0.1 s on a loaded machine).
 NEITHER_BOUND_S = 0.15
+
+
+def _in_thread(call: Callable[[], Any]) -> Future:
+    """Run ``call`` in a daemon thread; its result (or exception) lands in the returned future."""
+    future: Future = Future()
+
+    def run() -> None:
+        try:
+            future.set_result(call())
+        except BaseException as exc:
+            future.set_exception(exc)
+
+    threading.Thread(target=run, daemon=True).start()
+    return future
 
 
 def test_the_stop_move_is_settled_before_release_mode_reaches_the_robot(shared_stack_factory) -> None:
@@ -85,17 +102,20 @@ def test_an_estop_from_low_level_damps_the_moment_the_service_answers(shared_sta
 
 #: The e-stop's own budget in this test (estop_timeout_s) and its call timeout (estop_call_timeout_s).
 ESTOP_TOTAL_S, ESTOP_CALL_S = 2.0, 0.5
+#: The transitions' SelectMode timeout in that test: longer than the e-stop's budget, shorter than the default.
+SELECT_S = 4.0
 
 
 def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(shared_stack_factory) -> None:
-    """A SelectMode that never returns (held 30 s; the transitions wait 10 s for it, the e-stop's own SelectMode
-    5 s): the e-stop answers by estop_timeout_s + one call timeout, and says it is incomplete, never damped."""
+    """A SelectMode that never returns (held 30 s; the transition waits select_timeout_s 4 s for it, the e-stop's
+    own SelectMode 5 s): the e-stop answers by estop_timeout_s + one call timeout, and says it is incomplete,
+    never damped. The pre-empted mode change is answered too, once its SelectMode gave up."""
     stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 30.0}}, bridge_args=("--gantry",),
-                                 node_params=(f"estop_timeout_s:={ESTOP_TOTAL_S}",
-                                              f"estop_call_timeout_s:={ESTOP_CALL_S}"))  # fmt: skip
+                                 node_params=(f"estop_timeout_s:={ESTOP_TOTAL_S}", f"estop_call_timeout_s:={ESTOP_CALL_S}",
+                                              f"select_timeout_s:={SELECT_S}"))  # fmt: skip
     assert stack.set_mode("low_level").success
     t_call = time.monotonic()
-    threading.Thread(target=lambda: stack.set_mode("high_level"), daemon=True).start()
+    pending = _in_thread(lambda: stack.set_mode("high_level"))
     assert wait_until(lambda: requests(stack.record.events(t_call), api_ids.MS_SELECT_MODE), 5.0)
     t0 = time.monotonic()
     reply = stack.estop()
@@ -106,3 +126,8 @@ def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(sh
     assert not reply.success and "e-stop incomplete" in reply.message, reply.message
     # never claims more than is true: the robot was not damping when it answered
     assert not any(s["fsm"] == 1 and s["svc"] for s in states(stack.record.events(t0))), "damped after all?"
+    # the pre-empted mode change is answered too (a failure, in EMERGENCY), not left to its caller's timeout
+    answer = pending.result(timeout=SELECT_S + 5.0)
+    print(f"the pre-empted set_mode answered {time.monotonic() - t_call:.2f} s after it was sent: {answer.message}")
+    assert not answer.success and "preempted by e-stop" in answer.message, answer.message
+

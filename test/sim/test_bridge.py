@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 import re
 import signal
@@ -30,8 +31,10 @@ from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.crc import lowcmd_crc, lowstate_crc
 from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, ARM_SDK_WEIGHT_INDEX, JOINT_INDEX
+from support.mode_manager import wait_until
 from support.processes import ManagedProcess, python_module
 from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
+from support.sim_record import SimRecord
 
 pytestmark = pytest.mark.sim
 
@@ -278,6 +281,39 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_
     req = status.get()["requests"]
     assert req["sport"][str(api.LOCO_SET_FSM_ID)] >= 3 and req["motion_switcher"][str(api.MS_RELEASE_MODE)] == 1
     assert proc.stop() == 0 and "Traceback" not in proc.output(), proc.output()  # SIGINT: clean exit
+
+
+def test_a_starved_sim_still_records_every_arm_sdk_frame_in_order(clients: Clients, sim_bridge_factory,  # noqa: F811
+                                                                tmp_path) -> None:  # fmt: skip
+    """The robot receives every 50 Hz arm_sdk frame. A sim process frozen for 0.3 s (a loaded machine) must not
+    drop the frames queued meanwhile, or its record shows weight steps nobody sent."""
+    record = tmp_path / "record.jsonl"
+    proc = sim_bridge_factory(extra_args=("--record", str(record)))
+    clients.status.wait_ready()
+
+    def arm_frames(since: float) -> list[float]:
+        return [round(e["w"], 5) for e in SimRecord(record).events(since) if e["k"] == "frame" and e["topic"] == "arm_sdk"]
+
+    def probe() -> bool:  # until the bridge's reader is matched: a frame of weight 0 on the record
+        clients.arm.Write(_lowcmd(np.zeros(29), kp=0.0, kd=0.0, weight=0.0, indices=ARM_SDK_JOINTS))
+        time.sleep(0.05)
+        return bool(arm_frames(-math.inf))
+
+    assert wait_until(probe, 10.0)
+    time.sleep(0.1)
+    sent = [k / 100 for k in range(1, 61)]
+    t0 = time.monotonic()
+    for k, weight in enumerate(sent):
+        if k == 20:
+            os.kill(proc.proc.pid, signal.SIGSTOP)  # 15 frames go out while it is frozen
+        if k == 35:
+            os.kill(proc.proc.pid, signal.SIGCONT)
+        clients.arm.Write(_lowcmd(np.zeros(29), kp=0.0, kd=0.0, weight=weight, indices=ARM_SDK_JOINTS))
+        time.sleep(0.02)
+    os.kill(proc.proc.pid, signal.SIGCONT)
+
+    wait_until(lambda: len(arm_frames(t0)) >= len(sent), 5.0)
+    assert arm_frames(t0) == [round(w, 5) for w in sent]
 
 
 def test_faults_delay_error_damp_fails(clients: Clients, sim_bridge_factory) -> None:  # noqa: F811

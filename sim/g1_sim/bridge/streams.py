@@ -7,7 +7,7 @@ import logging
 import threading
 from collections import Counter
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, Final, Protocol
 
 import numpy as np
 from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
@@ -33,8 +33,11 @@ from g1_sim.physics.battery import CELLS
 
 log = logging.getLogger(__name__)
 
-#: Reader queue length of the command topics (the SDK's reader thread drops the oldest beyond it).
-COMMAND_QUEUE_LEN = 4
+#: Reader queue lengths of the command topics: the SDK's reader drops every new frame beyond them. rt/lowcmd:
+#: the robot's 500 Hz loop takes the latest frame, so a stalled sim may skip stale ones (4 = 8 ms). rt/arm_sdk:
+#: every 50 Hz frame, as the robot (C++, no GIL) receives them: a sim process starved for 150 ms on a
+#: loaded machine dropped 3-4 frames of 4 and recorded arm weight steps the node never sent (1.28 s here).
+COMMAND_QUEUE_LEN: Final = {topics.LOWCMD: 4, topics.ARM_SDK: 64}
 #: BmsState_ fields the sim has no model for: plausible constants (firmware version, health, cycles).
 BMS_VERSION = (1, 0)
 BMS_SOH = 100
@@ -212,11 +215,11 @@ class CommandSubscribers:
         self._arrivals: dict[str, Arrivals] = {}
         for topic, handler in ((topics.LOWCMD, intake.on_lowcmd), (topics.ARM_SDK, intake.on_arm_sdk)):
             sub = ChannelSubscriber(topic, LowCmd_)
-            sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN)
+            sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN[topic])
             self._subs.append(sub)
             if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
                 reader = channel_datareader(subscriber_channel(sub))
-                stamps = Arrivals(reader, lowcmd_content_crc, window=2 * COMMAND_QUEUE_LEN)
+                stamps = Arrivals(reader, lowcmd_content_crc, window=2 * COMMAND_QUEUE_LEN[topic])
                 self._arrivals[topic.removeprefix("rt/")] = stamps
 
     def arrival(self, topic: str, content_crc: int) -> float | None:
