@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowState_
@@ -65,18 +62,3 @@ def test_lowstate_decoding_equals_full_deserialisation(mode_machine: int, tick: 
     assert (snapshot.mode_machine, snapshot.tick) == (mode_machine, tick)
     assert snapshot.q == tuple(q[:29])
     assert snapshot.message().motor_state[5].dq == dq[5]
-
-
-def test_benchmark_lowstate_decoding(pytestconfig: pytest.Config) -> None:
-    data = serialized(unitree_hg_msg_dds__LowState_())
-    start = time.perf_counter()
-    for _ in range(2000):
-        decode_lowstate(data)
-    fast_us = (time.perf_counter() - start) / 2000 * 1e6
-    start = time.perf_counter()
-    for _ in range(100):
-        LowState_.deserialize(data)
-    full_us = (time.perf_counter() - start) / 100 * 1e6
-    capture = pytestconfig.pluginmanager.get_plugin("capturemanager")
-    with capture.global_and_fixture_disabled():
-        print(f"\nrt/lowstate decoding: {fast_us:.1f} us (full deserialisation {full_us:.0f} us)")

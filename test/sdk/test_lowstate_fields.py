@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowState_
@@ -37,15 +34,3 @@ def test_fields_equal_full_deserialisation(q, dq, ddq, tau, imu, temperature) ->
     assert fields.quaternion == tuple(imu[:4])
     assert fields.gyroscope == tuple(imu[4:7]) and fields.accelerometer == tuple(imu[7:])
     assert decode_fields_slowly(data) == fields
-
-
-def test_benchmark_field_decoding(pytestconfig: pytest.Config) -> None:
-    data = serialized(unitree_hg_msg_dds__LowState_())
-    start = time.perf_counter()
-    for _ in range(2000):
-        decode_fields(data)
-    us = (time.perf_counter() - start) / 2000 * 1e6
-    capture = pytestconfig.pluginmanager.get_plugin("capturemanager")
-    with capture.global_and_fixture_disabled():
-        print(f"\njoint state + IMU decode: {us:.1f} us per rt/lowstate")
-    assert us < 200
