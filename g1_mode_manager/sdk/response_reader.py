@@ -66,11 +66,12 @@ def _decode_slow(raw: bytes) -> tuple[int, Reply]:
 class Pending:
     """One call waiting for its reply."""
 
-    __slots__ = ("done", "reply")
+    __slots__ = ("closed", "done", "reply")
 
     def __init__(self) -> None:
         self.done = threading.Event()
         self.reply: Reply | None = None
+        self.closed = False  # woken by close(): no reply will come
 
 
 class ResponseReader:
@@ -87,6 +88,7 @@ class ResponseReader:
         self._decode = decode if self._decoding_is_exact() else _decode_slow
         self.fast = self._decode is decode
         self._errors = 0
+        self.closed = False
         self._listener = Listener(on_data_available=self._on_data)
         _NEVER_FREED.append(self._listener)
         self._reader = DataReader(sdk_participant(), sdk_reader.topic, sdk_reader.get_qos(), self._listener)
@@ -115,7 +117,11 @@ class ResponseReader:
     def expect(self, request_id: int) -> Pending:
         pending = Pending()
         with self._lock:
-            self._pending[request_id] = pending
+            if self.closed:
+                pending.closed = True
+                pending.done.set()
+            else:
+                self._pending[request_id] = pending
         return pending
 
     def forget(self, request_id: int) -> None:
@@ -162,7 +168,12 @@ class ResponseReader:
     def close(self) -> None:
         """No more calls into Python from Cyclone's receive thread: a reply that arrives while the process
         exits (a late answer to a call that timed out) would otherwise call a listener after the
-        interpreter is gone (a SIGSEGV at exit). The listener object itself stays alive (_NEVER_FREED)."""
+        interpreter is gone (a SIGSEGV at exit). The listener object itself stays alive (_NEVER_FREED).
+        Calls waiting for a reply, and every later one, end at once (``Pending.closed``)."""
+        with self._lock:  # first wake the waiting calls: one may hold up the process's exit for its whole timeout
+            self.closed = True
+            waiting, self._pending = list(self._pending.values()), {}
+        for pending in waiting:
+            pending.closed = True
+            pending.done.set()
         self._reader.set_listener(None)  # Cyclone waits for a callback that is running
-        with self._lock:
-            self._pending.clear()

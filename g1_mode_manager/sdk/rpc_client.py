@@ -60,8 +60,13 @@ class RpcClient(Client):
         self._last_id = 0
 
     def close(self) -> None:
-        """Stop taking replies (the SDK's client has no close of its own); later calls time out."""
+        """Stop taking replies (the SDK's client has no close of its own): calls waiting for one, and later
+        ones, raise RobotError at once."""
         self._replies.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._replies.closed
 
     def _next_id(self) -> int:
         """Request ids as the SDK makes them (monotonic ns), but never equal across threads."""
@@ -127,7 +132,7 @@ class RpcClient(Client):
             try:
                 return self.server_api_version(timeout_s=max(0.05, min(attempt_timeout_s, remaining)))
             except RobotError:
-                if deadline - time.monotonic() <= 0:
+                if deadline - time.monotonic() <= 0 or self.closed:
                     raise
 
 
@@ -151,6 +156,9 @@ class PendingCall:
         """The reply's data string, once it came; raises RobotError (3104 when the timeout passed first)."""
         client = self._client
         reply = client._replies.wait(self._pending, max(0.0, self._deadline - time.monotonic()))
+        if reply is None and self._pending.closed:
+            raise RobotError(self._name, ERR_CLIENT_SEND, f"{client.service!r} client closed (the node is shutting "
+                             "down): no reply is taken")
         if reply is None:
             client._replies.forget(self._request_id)
             raise RobotError(self._name, ERR_CLIENT_API_TIMEOUT, f"no reply from {client.service!r} in {self._timeout_s:.2f} s")

@@ -206,6 +206,39 @@ def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobo
     assert order == [1002, 7101]
 
 
+def test_closing_the_port_ends_a_call_still_waiting_for_its_reply(sdk_channels: int) -> None:
+    """At shutdown a transition's SelectMode may still wait for a robot that answers in seconds: close() ends
+    it at once (and every later call), so nothing holds the process's exit up for the call's timeout."""
+    proc = start_scripted_robot({"domain": sdk_channels, "delays": {"1002": 30.0}})
+    port = UnitreeRobot(sdk_channels, "lo", rpc_timeout_s=1.0, mode_timeout_s=20.0)
+    outcome: dict[str, Any] = {}
+
+    def select() -> None:
+        try:
+            port.select_mode("ai", timeout_s=20.0)
+            outcome["select"] = "answered"
+        except RobotError as error:
+            outcome["select"] = error
+
+    try:
+        port.connect()
+        thread = threading.Thread(target=select)
+        thread.start()
+        wait_event(proc, "request", api_id=1002)
+        start = time.monotonic()
+        port.close()
+        thread.join(20.0)
+        ended_s = time.monotonic() - start
+        assert isinstance(outcome["select"], RobotError) and outcome["select"].code == 3102, outcome
+        assert "closed" in str(outcome["select"])
+        assert ended_s < 5.0, f"the call ended {ended_s:.1f} s after close(), at its timeout"
+        with pytest.raises(RobotError):
+            port.get_fsm_id(timeout_s=5.0)
+    finally:
+        port.close()
+        proc.stop()
+
+
 def test_lowstate_can_be_unsubscribed_and_resubscribed(robot: UnitreeRobot, peer: Peer) -> None:
     """Off: no sample reaches the port and no pose is handed out (it would be stale); mode_machine stays
     known. Back on: samples flow again within moments."""
