@@ -9,7 +9,7 @@ SIDE_VENV ?= .venv-cyclone010
 
 MSG_SOURCES := $(shell find msg_defs -type f)
 
-.PHONY: setup run test lint bench chaos clean
+.PHONY: setup run test lint bench chaos exits clean
 
 setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets $(SIDE_VENV)/.stamp
 
@@ -55,16 +55,22 @@ run: setup
 bench: setup
 	$(BIN)/python -m bench.run
 
-# The chaos suite on a longer randomized batch: `make chaos N=500 SEED=1`. Its last line is
-# `chaos: N scenarios, V violations`; each violation names its seed (replay: N=1 SEED=<seed>).
+# The chaos suite on a longer randomized batch of every scenario length: `make chaos N=500 SEED=1`. It prints
+# its coverage table, then `chaos: N scenarios, V violations, U unclean exits`; each violation names its seed
+# (replay: N=1 SEED=<seed>), an unclean exit's output is kept in .venv/chaos_unclean/.
 N ?= 100
 SEED ?= $(shell date +%s)
 chaos: setup
-	@rm -f .venv/chaos_summary.txt
-	-G1_CHAOS_N=$(N) G1_CHAOS_PARTS=1 G1_CHAOS_SEED=$(SEED) G1_CHAOS_SUMMARY=.venv/chaos_summary.txt \
-		$(BIN)/python -m pytest -q test/chaos
+	@rm -rf .venv/chaos_summary.txt .venv/chaos_unclean
+	-G1_CHAOS_N=$(N) G1_CHAOS_PARTS=1 G1_CHAOS_SEED=$(SEED) G1_CHAOS_LENGTHS=short,medium,long \
+		G1_CHAOS_SUMMARY=.venv/chaos_summary.txt $(BIN)/python -m pytest -q test/chaos
 	@cat .venv/chaos_summary.txt
-	@tail -n 1 .venv/chaos_summary.txt | grep -q ' 0 violations$$'
+	@tail -n 1 .venv/chaos_summary.txt | grep -q ' 0 violations, 0 unclean exits$$'
+	@! grep -q '^coverage shortfall' .venv/chaos_summary.txt
+
+# Start, operate and SIGINT the node N times (`make exits N=1000`); its last line is `exits: N cycles, U unclean`.
+exits: setup
+	PYTHONPATH=test$${PYTHONPATH:+:$$PYTHONPATH} $(BIN)/python -m exits --cycles $(N) --seed $(SEED)
 
 clean:
 	rm -rf $(VENV) $(SIDE_VENV) build *.egg-info

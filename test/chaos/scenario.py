@@ -1,33 +1,19 @@
-"""One chaos scenario: random robot faults, random operator traffic, random body faults (pushes, overheated
-motors, a drained battery, the remote's L2+B, a frozen state stream), an e-stop at a random instant.
+"""The judge of a chaos scenario: the safety invariants, read from the robot's side only.
 
-Everything random comes from the scenario's seed, so a failure is replayed with `make chaos SEED=<seed> N=1`.
-The judge reads only the robot's side: the sim's record (requests and frames with receive times, state
-changes) and the sim's final state. The node's replies are used only to know what it *claimed* and when.
+The judge reads the sim's record (requests and frames with receive times, state changes) and the sim's final
+state. The node's replies and ``~/mode`` messages are used only to know what it *claimed* and when.
 """
 
 from __future__ import annotations
 
-import random
+import itertools
 import threading
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
 from g1_mode_manager.protocol import api_ids
 from support.sim_record import Event, damped, fsm_of, is_damp, requests, states, velocity_of
 
-#: Per-api delays the sim may inject (the robot's slow calls), s; node call timeouts exceed the maximum.
-DELAYED_APIS = (api_ids.MS_CHECK_MODE, api_ids.MS_SELECT_MODE, api_ids.MS_RELEASE_MODE, api_ids.LOCO_SET_FSM_ID)
-MAX_DELAY_S = 3.0
-MODES = ("idle", "high_level", "low_level")
-LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand")
-#: Operator actions, with their weights: mode requests, loco commands, /cmd_vel, arm and joint streams, a body
-#: fault made true in the sim, an operator's clear_fault.
-KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear")
-BODY_FAULTS = ("push", "overheat", "battery", "remote", "freeze")
-#: How long a transient body fault (a held key, a frozen stream) lasts, s.
-TRANSIENT_S = (0.3, 1.5)
 #: After a FAULT was claimed, the robot must be seen damped within this (the e-stop's budget, its calls'
 #: injected delays), s.
 FAULT_DAMPED_S = 12.0
@@ -38,74 +24,16 @@ GRACE_S = 0.06  # a frame in flight, plus one rt/sportmodestate period, after a 
 
 
 @dataclass
-class Plan:
-    seed: int
-    faults: dict[str, Any]
-    actions: list[tuple[float, int, str, Any]]  # (at s, client, kind, argument)
-    estop_at: float
-    estop_via: str  # "service", "topic_reliable", "topic_best_effort"
-    damp_fails: int
-    gantry: bool = False  # the robot hangs in the sim's gantry (then a limp LOW_LEVEL robot does not fall)
-
-
-def _body_fault(rng: random.Random) -> dict[str, Any]:
-    """One body fault as the sim's faults keys, with how long it lasts (None: to the scenario's end)."""
-    kind = rng.choice(BODY_FAULTS)
-    lasts = round(rng.uniform(*TRANSIENT_S), 3)
-    if kind == "push":
-        push = {"force": round(rng.uniform(50, 700)), "direction": round(rng.uniform(-3.14, 3.14), 3),
-                "duration": round(rng.uniform(0.1, 0.4), 3)}  # fmt: skip
-        return {"set": {"push": push}, "lasts": None}
-    if kind == "overheat":
-        motor, hot = str(rng.randrange(29)), rng.choice([(60, 125), (90, 60), (70, 140), (100, 60)])
-        return {"set": {"motor_temperature": {motor: list(hot)}}, "lasts": None}
-    if kind == "battery":
-        return {"set": {"battery_soc": round(rng.uniform(3, 19), 1)}, "lasts": None}
-    if kind == "remote":
-        return {"set": {"remote_keys": ["L2", "B"]}, "lasts": lasts}
-    return {"set": {"freeze_lowstate": True}, "lasts": lasts}
-
-
-def plan(seed: int) -> Plan:
-    rng = random.Random(seed)
-    delays = {}
-    for api in DELAYED_APIS:
-        if rng.random() < 0.6:
-            high = rng.uniform(0.1, MAX_DELAY_S)
-            delays[str(api)] = [0.0, round(high, 3)]
-    damp_fails = rng.choice([0, 0, 0, 1, 2])
-    faults: dict[str, Any] = {"delay_s": delays, "seed": seed, "damp_fails": damp_fails}
-    actions: list[tuple[float, int, str, Any]] = []
-    t = 0.0
-    if rng.random() < 0.6:  # connect at once, so that later faults and the e-stop meet a connected node
-        t = 0.05
-        actions.append((t, 0, "mode", rng.choice(MODES)))
-    for _ in range(rng.randint(2, 6)):
-        t += rng.uniform(0.05, 0.6)
-        kind = rng.choice(KINDS)
-        arg: Any = ""
-        if kind == "mode":
-            arg = rng.choice(MODES)
-        elif kind == "loco":
-            arg = rng.choice(LOCO)
-        elif kind == "body":  # after the node's first connect (~1.5 s): before it, no check acts
-            arg = _body_fault(rng)
-            t = max(t, rng.uniform(1.8, 2.6))
-        actions.append((t, rng.randint(0, 1), kind, arg))
-    body_at = [at for at, _, kind, _ in actions if kind == "body"]
-    after_body = bool(body_at) and rng.random() < 0.7  # mostly after a body fault, so that its reaction is seen
-    estop_at = rng.uniform(body_at[-1] + 0.3, t + 2.5) if after_body else rng.uniform(0.1, t + 1.5)
-    via = rng.choice(["service", "service", "topic_reliable", "topic_best_effort"])
-    return Plan(seed, faults, actions, estop_at, via, damp_fails, gantry=rng.random() < 0.5)
-
-
-@dataclass
 class Claims:
     """What the node said, with the test process's monotonic receive time."""
 
     t_estop: float = 0.0
     estop_success: bool | None = None
     t_answer: float = 0.0
+    #: a second e-stop: (answered at, success) of each one answered (a topic e-stop has no answer)
+    later_estops: list[tuple[float, bool]] = field(default_factory=list)
+    #: (SIGKILLed at, the fresh node's first mode request sent at, or inf) of each restart
+    restarts: list[tuple[float, float]] = field(default_factory=list)
     modes: list[tuple[float, Any]] = field(default_factory=list)  # (t, Mode msg)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -147,6 +75,10 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
                 bad.append(f"arm_sdk weight {e['w']} after the e-stop")
             elif e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0:
                 bad.append(f"user lowcmd (kp {e['kp_max']}) after the e-stop")
+    for t_answer, success in claims.later_estops:
+        at = state_at(t_answer)
+        if success and (at is None or not damped(at)):
+            bad.append(f"a second e-stop answered success but the robot was {at}")
     with claims.lock:
         modes = list(claims.modes)
     for t, msg in modes:
@@ -155,8 +87,25 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
             if at is None or not damped(at):
                 bad.append(f"~/mode claimed damped at {t:.3f} while the robot was {at}")
                 break
-    bad += _judge_streams(events, history, modes)
-    bad += _judge_faults(events, history, modes)
+    kills = [t for t, _ in claims.restarts]
+    for lo, hi in itertools.pairwise([float("-inf"), *kills, float("inf")]):  # one node's life each
+        life = [(t, m) for t, m in modes if lo <= t < hi]
+        bad += _judge_streams(events, history, life)
+        bad += _judge_faults(events, history, life, killed_at=hi)
+    bad += _judge_restarts(events, claims.restarts)
+    return bad
+
+
+def _judge_restarts(events: list[Event], restarts: list[tuple[float, float]]) -> list[str]:
+    """A SIGKILLed node sends nothing more, and its fresh successor forwards nothing before it is asked for a
+    mode: between the kill (plus a frame in flight) and that request, no motion reaches the robot."""
+    bad = []
+    for t_kill, t_request in restarts:
+        late = [(e["t"] - t_kill, what) for e in events
+                if t_kill + GRACE_S < e["t"] < t_request and (what := _forwarded_motion(e))]
+        if late:
+            bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s after the node was killed, before its "
+                       f"successor was asked for a mode")
     return bad
 
 
@@ -174,16 +123,20 @@ def _forwarded_motion(e: Event, *, arms: bool = True) -> str:
     return ""
 
 
-def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[float, Any]]) -> list[str]:
+def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[float, Any]], *,
+                  killed_at: float = float("inf")) -> list[str]:  # fmt: skip
     """FAULT (a body check's protective stop) and holds, on the robot's record: FAULT is left only to IDLE or
     EMERGENCY; from the moment it was claimed nothing but damping reaches the robot until it is left, and the
-    robot is seen damped within FAULT_DAMPED_S; while a hold is claimed no Move and no user lowcmd reach it."""
+    robot is seen damped within FAULT_DAMPED_S; while a hold is claimed no Move and no user lowcmd reach it.
+    ``modes`` are one node's; a node SIGKILLed at ``killed_at`` is judged only until then."""
     bad: list[str] = []
+    if not modes:
+        return bad
     fault_mode, idle, emergency = 5, 1, 4
     episodes: list[tuple[float, float]] = []  # (claimed, left) of each FAULT and hold period
     holds: list[tuple[float, float]] = []
     start = held = None
-    for (t, m), nxt in zip(modes, [*modes[1:], (float("inf"), None)], strict=True):
+    for (t, m), nxt in zip(modes, [*modes[1:], (killed_at, None)], strict=True):
         if m.mode == fault_mode and start is None:
             start = t
         if start is not None and nxt[1] is not None and nxt[1].mode != fault_mode:
@@ -197,13 +150,13 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
             holds.append((held, nxt[0]))
             held = None
     if start is not None:
-        episodes.append((start, float("inf")))
+        episodes.append((start, killed_at))
     for t_fault, t_left in episodes:
         late = [(e["t"] - t_fault, what) for e in events
                 if t_fault + GRACE_S < e["t"] < t_left and (what := _forwarded_motion(e))]
         if late:
             bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s into FAULT")
-        end = events[-1]["t"] if events else t_fault
+        end = min(events[-1]["t"] if events else t_fault, killed_at)  # a killed node keeps nothing damped
         if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in history
                                                        if t_fault <= s["t"] <= t_fault + FAULT_DAMPED_S):
             bad.append(f"robot not damped within {FAULT_DAMPED_S} s of FAULT")
@@ -258,66 +211,3 @@ def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[
                 break
             previous = (v[0], v[1], v[2])
     return bad
-
-
-def run_actions(stack: Any, p: Plan, t0: float, stop: threading.Event) -> None:
-    """The operators: each client in its own thread, actions at their planned times."""
-
-    def client(k: int) -> None:
-        for at, who, kind, arg in p.actions:
-            if who != k:
-                continue
-            if stop.wait(max(0.0, t0 + at - time.monotonic())):
-                return
-            try:
-                if kind == "mode":
-                    stack.set_mode(arg, timeout_s=20.0)
-                elif kind == "loco":
-                    stack.loco(arg)
-                elif kind == "drive":
-                    stack.drive(0.3, 0.5, rate_hz=50.0)
-                elif kind == "arm":
-                    _stream(stack, "arm_cmd", _arm_msg(), 0.6, 50.0)
-                elif kind == "body":
-                    stack.set_faults({**p.faults, **arg["set"]})
-                    if arg["lasts"] is not None and not stop.wait(arg["lasts"]):
-                        stack.set_faults(p.faults)
-                elif kind == "clear":
-                    stack.clear_fault()
-                else:
-                    _stream(stack, "lowcmd", _lowcmd_msg(), 0.5, 100.0)
-            except TimeoutError:
-                pass
-
-    threads = [threading.Thread(target=client, args=(k,), daemon=True) for k in (0, 1)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        th.join(40.0)
-
-
-def _arm_msg() -> Any:
-    from sensor_msgs.msg import JointState
-
-    return JointState(name=["left_shoulder_roll_joint", "right_shoulder_roll_joint"], position=[0.6, -0.6])
-
-
-def _lowcmd_msg() -> Any:
-    from g1_mode_manager_msgs.msg import JointCommand
-
-    return JointCommand(name=["left_elbow_joint"], q=[1.0], dq=[0.0], tau=[0.0], kp=[40.0], kd=[2.0])
-
-
-_PUBLISHERS: dict[tuple[int, str], Any] = {}
-
-
-def _stream(stack: Any, topic: str, msg: Any, seconds: float, rate_hz: float) -> None:
-    """Publish ``msg`` on the node's ``~/<topic>`` for ``seconds``."""
-    key = (id(stack.ros.node), stack.name(topic))
-    if key not in _PUBLISHERS:
-        _PUBLISHERS[key] = stack.ros.node.create_publisher(type(msg), stack.name(topic), 10)
-    pub = _PUBLISHERS[key]
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        pub.publish(msg)
-        time.sleep(1.0 / rate_hz)

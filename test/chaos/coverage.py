@@ -1,0 +1,117 @@
+"""What a chaos batch covered: the cell each e-stop landed in, and the table ``make chaos`` prints.
+
+A cell is (what ``~/mode`` showed when the e-stop went out) x (what the operators had in flight then). The
+row is the mode, or ``->TARGET`` while a transition is in progress (``->IDLE`` from UNINITIALIZED is the
+first connect). The columns are the operators' own outstanding requests, seen from their side: a mode call
+sent and not yet answered, a loco command likewise, a stream being published, or nothing. Several can be in
+flight at once; each counts. A transition is itself a mode call in flight, so ``->X`` x nothing cannot
+happen and is not required.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import Counter
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+ROWS = ("UNINITIALIZED", "IDLE", "HIGH_LEVEL", "LOW_LEVEL", "FAULT", "->IDLE", "->HIGH_LEVEL", "->LOW_LEVEL")
+COLUMNS = ("nothing", "mode call", "loco command", "stream")
+#: Every cell a batch must hit: all but a transition with nothing in flight.
+REQUIRED = tuple((r, c) for r in ROWS for c in COLUMNS if not (r.startswith("->") and c == "nothing"))
+#: The share of e-stops that must land after the node's first connect, in a batch of 100 or more.
+AFTER_CONNECT_GOAL = 0.7
+
+
+def row_of(mode_name: str, transition_in_progress: bool, target_name: str) -> str:
+    """The row of a ``~/mode`` message."""
+    return f"->{target_name}" if transition_in_progress else mode_name
+
+
+class InFlight:
+    """The operators' outstanding requests by column, counted as they are sent and answered (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._changed = threading.Condition()
+        self._counts: Counter[str] = Counter()
+
+    def begin(self, column: str) -> None:
+        with self._changed:
+            self._counts[column] += 1
+            self._changed.notify_all()
+
+    def end(self, column: str) -> None:
+        with self._changed:
+            self._counts[column] -= 1
+            self._changed.notify_all()
+
+    def columns(self) -> tuple[str, ...]:
+        """What is in flight now; ("nothing",) when nothing is."""
+        with self._changed:
+            now = tuple(c for c in COLUMNS if self._counts[c] > 0)
+        return now or ("nothing",)
+
+    def wait(self, timeout_s: float) -> None:
+        """Until something begins or ends, or ``timeout_s``."""
+        with self._changed:
+            self._changed.wait(timeout_s)
+
+
+@dataclass
+class Landing:
+    """Where one e-stop landed."""
+
+    row: str
+    columns: tuple[str, ...]
+    connected: bool  # the node had finished a first connect (shown a mode other than UNINITIALIZED)
+
+    def cells(self) -> list[tuple[str, str]]:
+        return [(self.row, c) for c in self.columns]
+
+
+@dataclass
+class Coverage:
+    """The landings of a batch, and the scenario features it exercised."""
+
+    landings: list[Landing] = field(default_factory=list)
+    features: Counter[str] = field(default_factory=Counter)
+
+    def add(self, landing: Landing, features: Iterable[str] = ()) -> None:
+        self.landings.append(landing)
+        self.features.update(features)
+
+    def counts(self) -> Counter[tuple[str, str]]:
+        return Counter(cell for landing in self.landings for cell in landing.cells())
+
+    def missing(self) -> list[tuple[str, str]]:
+        counts = self.counts()
+        return [cell for cell in REQUIRED if counts[cell] == 0]
+
+    def after_connect(self) -> float:
+        return sum(landing.connected for landing in self.landings) / max(1, len(self.landings))
+
+    def shortfalls(self) -> list[str]:
+        """Why this batch (100 scenarios or more) does not cover what it must; [] if it does."""
+        why = []
+        if self.missing():
+            why.append(f"cells never hit: {self.missing()}")
+        if self.after_connect() < AFTER_CONNECT_GOAL:
+            why.append(f"only {100 * self.after_connect():.0f} % of e-stops after the first connect")
+        return why
+
+    def table(self) -> str:
+        counts = self.counts()
+        width = max(len(r) for r in ROWS) + 2
+        lines = ["chaos coverage: e-stops by what ~/mode showed (rows) x what the operators had in flight (columns)",
+                 "".ljust(width) + "".join(c.rjust(14) for c in COLUMNS)]
+        for r in ROWS:
+            cells = ["n/a" if (r, c) not in REQUIRED else str(counts[(r, c)]) for c in COLUMNS]
+            lines.append(r.ljust(width) + "".join(v.rjust(14) for v in cells))
+        n = len(self.landings)
+        hit = len(REQUIRED) - len(self.missing())
+        after = sum(landing.connected for landing in self.landings)
+        lines.append(f"chaos coverage: {hit} of {len(REQUIRED)} cells hit; e-stops after the first connect: {after} of "
+                     f"{n} ({100 * after / max(1, n):.0f} %)")
+        if self.features:
+            lines.append("chaos coverage: " + ", ".join(f"{k} {v}" for k, v in sorted(self.features.items())))
+        return "\n".join(lines)

@@ -1,0 +1,146 @@
+"""The operators of a chaos scenario: each client in its own thread, its actions at their planned times.
+
+Every request and stream is registered in an ``InFlight`` from just before it is sent until it is answered
+or ends, so the scenario knows what was in flight when its e-stop went out. A node killed mid-scenario
+leaves requests unanswered: every call has a timeout short enough for the scenario to go on.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+
+from chaos.coverage import InFlight
+from chaos.plan import SETUP, STREAMS, Plan
+
+#: The longest any operator call waits for its answer, s (a transition with injected delays takes < 10 s).
+CALL_TIMEOUT_S = 15.0
+_COLUMN_OF = {"mode": "mode call", "loco": "loco command", **dict.fromkeys(STREAMS, "stream")}
+_STREAM_RATE_HZ = {"drive": 50.0, "arm": 50.0, "lowcmd": 100.0}
+
+
+class Operators:
+    """Runs a plan's actions against ``stack``; ``row_reached`` starts the column action."""
+
+    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event) -> None:
+        self._stack = stack
+        self._plan = p
+        self._in_flight = in_flight
+        self._stop = stop
+        self.row_reached = threading.Event()
+        self.node_back = threading.Event()  # the node was restarted (or never killed)
+        self.mode_calls: list[float] = []  # when each mode request began (list.append is atomic)
+        if p.kill_at is None:
+            self.node_back.set()
+
+    def run(self, t0: float, fault_claimed: Any) -> None:
+        """All clients until their actions are done (or ``stop``); ``fault_claimed()``: the node shows FAULT or
+        holds (the setup first clears them)."""
+        clients = sorted({who for _, who, _, _ in self._plan.actions} | {SETUP})
+        threads = [threading.Thread(target=self._client, args=(k, t0, fault_claimed), daemon=True) for k in clients]
+        threads.append(threading.Thread(target=self._column, daemon=True))
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join(60.0)
+
+    def _client(self, k: int, t0: float, fault_claimed: Any) -> None:
+        if k == SETUP and not self._settle(t0, fault_claimed):
+            return
+        for at, who, kind, arg in self._plan.actions:
+            if who != k:
+                continue
+            if self._stop.wait(max(0.0, t0 + at - time.monotonic())):
+                return
+            self.act(kind, arg)
+
+    def _settle(self, t0: float, fault_claimed: Any) -> bool:
+        """Before the setup: wait for the restarted node, then undo the noise's body faults and clear them."""
+        if self._stop.wait(max(0.0, t0 + self._plan.setup_at - time.monotonic())):
+            return False
+        while not self.node_back.wait(0.1):
+            if self._stop.is_set():
+                return False
+        if fault_claimed():
+            self._stack.set_faults(self._plan.faults)
+            deadline = time.monotonic() + 4.0
+            while fault_claimed() and time.monotonic() < deadline and not self._stop.wait(0.5):
+                self.act("clear", "")
+        return True
+
+    def _column(self) -> None:
+        if self._plan.column_action is None:
+            return
+        while not self.row_reached.wait(0.1):
+            if self._stop.is_set():
+                return
+        self.act(*self._plan.column_action)
+
+    def act(self, kind: str, arg: Any) -> None:
+        column = _COLUMN_OF.get(kind)
+        if kind == "mode":
+            self.mode_calls.append(time.monotonic())
+        if column is not None:
+            self._in_flight.begin(column)
+        try:
+            self._act(kind, arg)
+        except (TimeoutError, RuntimeError):  # a killed node leaves calls unanswered
+            pass
+        finally:
+            if column is not None:
+                self._in_flight.end(column)
+
+    def _act(self, kind: str, arg: Any) -> None:
+        stack, ros = self._stack, self._stack.ros
+        if kind == "mode":
+            ros.call(SetMode, stack.name("set_mode"), SetMode.Request(mode_name=arg), CALL_TIMEOUT_S, 5.0)
+        elif kind == "loco":
+            ros.call(LocoCommand, stack.name("loco_command"), LocoCommand.Request(command=arg), CALL_TIMEOUT_S, 5.0)
+        elif kind == "body":
+            stack.set_faults({**self._plan.faults, **arg["set"]})
+            if arg["lasts"] is not None and not self._stop.wait(arg["lasts"]):
+                stack.set_faults(self._plan.faults)
+        elif kind == "clear":
+            from std_srvs.srv import Trigger
+
+            ros.call(Trigger, stack.name("clear_fault"), Trigger.Request(), CALL_TIMEOUT_S, 5.0)
+        elif kind in STREAMS:
+            _stream(stack, kind, float(arg or 0.5), self._stop)
+
+
+_PUBLISHERS: dict[tuple[int, str], Any] = {}
+
+
+def _stream(stack: Any, kind: str, seconds: float, stop: threading.Event) -> None:
+    """Publish on /cmd_vel, ``~/arm_cmd`` or ``~/lowcmd`` for ``seconds`` (or until ``stop``)."""
+    topic, msg = _message(stack, kind)
+    key = (id(stack.ros.node), topic)
+    if key not in _PUBLISHERS:
+        _PUBLISHERS[key] = stack.ros.node.create_publisher(type(msg), topic, 10)
+    pub = _PUBLISHERS[key]
+    end = time.monotonic() + seconds
+    period = 1.0 / _STREAM_RATE_HZ[kind]
+    while time.monotonic() < end and not stop.is_set():
+        pub.publish(msg)
+        time.sleep(period)
+
+
+def _message(stack: Any, kind: str) -> tuple[str, Any]:
+    if kind == "drive":
+        from geometry_msgs.msg import Twist
+
+        msg = Twist()
+        msg.linear.x = 0.3
+        return f"{stack.ns}/cmd_vel", msg
+    if kind == "arm":
+        from sensor_msgs.msg import JointState
+
+        return stack.name("arm_cmd"), JointState(name=["left_shoulder_roll_joint", "right_shoulder_roll_joint"],
+                                                 position=[0.6, -0.6])
+    from g1_mode_manager_msgs.msg import JointCommand
+
+    return stack.name("lowcmd"), JointCommand(name=["left_elbow_joint"], q=[1.0], dq=[0.0], tau=[0.0], kp=[40.0],
+                                              kd=[2.0])

@@ -1,0 +1,176 @@
+"""A chaos scenario's plan, drawn from its seed: robot faults, the operators' actions, and where the e-stop aims.
+
+Each scenario aims its e-stop at one coverage cell (coverage.py), taken in turn by seed so that any run of
+consecutive seeds at least as long as the cell list aims at every cell. Random noise comes first (mode
+requests, loco commands, streams, body faults, clears from two or three clients; 2 to 40 actions over up to
+about 25 s by the scenario's length), then the *setup* brings the node to the aimed row (a mode, FAULT, or a
+transition kept long by injected delays), then the *column* action (a mode call, a loco command, a stream)
+starts once the row is reached; the e-stop goes out when both hold (or at the deadline: the landing is
+whatever was observed then, never the aim). Some scenarios also SIGKILL the node during the noise and start
+a fresh one, and some send a second e-stop after the first.
+
+Everything random comes from the seed, so a failure is replayed with `make chaos SEED=<seed> N=1`.
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass, field
+from typing import Any
+
+from chaos.coverage import REQUIRED
+from g1_mode_manager.protocol import api_ids
+
+#: Per-api delays the sim may inject (the robot's slow calls), s; node call timeouts exceed the maximum.
+DELAYED_APIS = (api_ids.MS_CHECK_MODE, api_ids.MS_SELECT_MODE, api_ids.MS_RELEASE_MODE, api_ids.LOCO_SET_FSM_ID)
+MAX_DELAY_S = 3.0
+#: A transition aimed at is kept in progress this long at least by delaying its calls, s.
+TRANSITION_DELAY_S = (1.0, 2.5)
+MODES = ("idle", "high_level", "low_level")
+LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand")
+#: Noise actions, with their weights: mode requests, loco commands, /cmd_vel, arm and joint streams, a body
+#: fault made true in the sim, an operator's clear_fault.
+KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear")
+STREAMS = ("drive", "arm", "lowcmd")
+BODY_FAULTS = ("push", "overheat", "battery", "remote", "freeze")
+#: How long a transient body fault (a held key, a frozen stream) lasts, s.
+TRANSIENT_S = (0.3, 1.5)
+#: Scenario lengths: (weight, noise actions, noise span s, noise clients).
+LENGTHS = {"short": (6, (0, 4), 2.0, 2), "medium": (3, (8, 16), 8.0, 2), "long": (1, (20, 40), 25.0, 3)}
+#: After the setup starts, the e-stop goes out at the latest this much later (the aim missed), s.
+AIM_DEADLINE_S = 9.0
+#: Clients: the noise uses 0..2, the setup SETUP, the column action COLUMN.
+SETUP, COLUMN = 3, 4
+#: A body fault that puts every mode in FAULT: a winding at 140 °C (past the 135 °C critical limit).
+FAULT_HEAT = {"motor_temperature": {"4": [70, 140]}}
+
+
+@dataclass
+class Plan:
+    seed: int
+    faults: dict[str, Any]
+    actions: list[tuple[float, int, str, Any]]  # (at s, client, kind, argument): the noise and the setup
+    aim: tuple[str, str]  # the coverage cell the e-stop aims at
+    column_action: tuple[str, Any] | None  # (kind, argument) started once the aimed row is reached
+    setup_at: float  # when the setup starts (the noise is over), s
+    estop_via: str  # "service", "topic_reliable", "topic_best_effort"
+    damp_fails: int
+    length: str = "short"
+    gantry: bool = False  # the robot hangs in the sim's gantry (then a limp LOW_LEVEL robot does not fall)
+    kill_at: float | None = None  # SIGKILL the node then (during the noise) and start a fresh one
+    second_estop_after: float | None = None  # a second e-stop this long after the first went out
+    second_via: str = "service"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _body_fault(rng: random.Random) -> dict[str, Any]:
+    """One body fault as the sim's faults keys, with how long it lasts (None: to the scenario's end)."""
+    kind = rng.choice(BODY_FAULTS)
+    lasts = round(rng.uniform(*TRANSIENT_S), 3)
+    if kind == "push":
+        push = {"force": round(rng.uniform(50, 700)), "direction": round(rng.uniform(-3.14, 3.14), 3),
+                "duration": round(rng.uniform(0.1, 0.4), 3)}  # fmt: skip
+        return {"set": {"push": push}, "lasts": None}
+    if kind == "overheat":
+        motor, hot = str(rng.randrange(29)), rng.choice([(60, 125), (90, 60), (70, 140), (100, 60)])
+        return {"set": {"motor_temperature": {motor: list(hot)}}, "lasts": None}
+    if kind == "battery":
+        return {"set": {"battery_soc": round(rng.uniform(3, 19), 1)}, "lasts": None}
+    if kind == "remote":
+        return {"set": {"remote_keys": ["L2", "B"]}, "lasts": lasts}
+    return {"set": {"freeze_lowstate": True}, "lasts": lasts}
+
+
+def _noise(rng: random.Random, length: str) -> tuple[list[tuple[float, int, str, Any]], float]:
+    """Random operator actions; returns them and when they end."""
+    _, (lo, hi), span, clients = LENGTHS[length]
+    count = rng.randint(lo, hi)
+    actions = []
+    for _ in range(count):
+        at = round(rng.uniform(0.05, span), 3)
+        kind = rng.choice(KINDS)
+        arg: Any = ""
+        if kind == "mode":
+            arg = rng.choice(MODES)
+        elif kind == "loco":
+            arg = rng.choice(LOCO)
+        elif kind in STREAMS:
+            arg = round(rng.uniform(0.3, 1.5), 2)
+        elif kind == "body":  # after the node's first connect (~1.5 s): before it, no check acts
+            arg = _body_fault(rng)
+            at = max(at, round(rng.uniform(1.8, 2.6), 3))
+        actions.append((at, rng.randrange(clients), kind, arg))
+    actions.sort(key=lambda a: a[0])
+    end = max((a[0] for a in actions), default=0.0)
+    return actions, end + (0.3 if actions else 0.05)
+
+
+def _delay(delays: dict[str, Any], rng: random.Random, *apis: int) -> None:
+    for api in apis:
+        delays[str(api)] = [TRANSITION_DELAY_S[0], round(rng.uniform(*TRANSITION_DELAY_S), 3)]
+
+
+def _setup(row: str, rng: random.Random, delays: dict[str, Any]) -> list[tuple[float, str, Any]]:
+    """The setup's actions for ``row``, at offsets from the setup's start (one client, in order)."""
+    check, select, release = api_ids.MS_CHECK_MODE, api_ids.MS_SELECT_MODE, api_ids.MS_RELEASE_MODE
+    if row == "UNINITIALIZED":
+        return []
+    if row in ("IDLE", "HIGH_LEVEL", "LOW_LEVEL"):
+        return [(0.0, "mode", row.lower())]
+    if row == "FAULT":
+        return [(0.0, "mode", rng.choice(MODES)), (0.3, "body", {"set": FAULT_HEAT, "lasts": None})]
+    if row == "->HIGH_LEVEL":
+        start = rng.choice(["idle", "low_level"] * 3 + [""])  # "": the first connect is the transition
+        _delay(delays, rng, check, select)
+        return [*([(0.0, "mode", start)] if start else []), (0.0, "mode", "high_level")]
+    if row == "->LOW_LEVEL":
+        start = rng.choice(["idle", "high_level"] * 3 + [""])
+        _delay(delays, rng, check, release)
+        return [*([(0.0, "mode", start)] if start else []), (0.0, "mode", "low_level")]
+    # ->IDLE: the first connect, or HIGH_LEVEL -> IDLE while the arms ramp out (up to 2 s)
+    if rng.random() < 0.25:
+        return [(0.0, "mode", "idle")]
+    return [(0.0, "mode", "high_level"), (0.0, "arm", 2.5), (0.0, "mode", "idle")]
+
+
+def _column_action(column: str, row: str, rng: random.Random) -> tuple[str, Any] | None:
+    if column == "nothing":
+        return None
+    if column == "mode call":
+        # in a settled row: a request that is refused or starts a transition; the e-stop goes out with it
+        return ("mode", rng.choice([m for m in MODES if m != row.lower()] or list(MODES)))
+    if column == "loco command":
+        return ("loco", rng.choice(LOCO))
+    kind = {"HIGH_LEVEL": "drive", "LOW_LEVEL": "lowcmd", "->LOW_LEVEL": "lowcmd"}.get(row, rng.choice(STREAMS))
+    if row in ("HIGH_LEVEL", "->IDLE") and rng.random() < 0.5:
+        kind = "arm"
+    return (kind, 3.0)
+
+
+def _gantry(row: str, rng: random.Random) -> bool:
+    """Hung in the gantry, or free. LOW_LEVEL is limp: a free robot falls within a second there, and a body
+    check turns the aimed row into FAULT; so a row in or into LOW_LEVEL is aimed at hung."""
+    return row in ("LOW_LEVEL", "->LOW_LEVEL") or rng.random() < 0.5
+
+
+def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS)) -> Plan:
+    rng = random.Random(seed)
+    aim = REQUIRED[seed % len(REQUIRED)]
+    row, column = aim
+    length = rng.choices(lengths, weights=[LENGTHS[n][0] for n in lengths])[0]
+    delays: dict[str, Any] = {}
+    for api in DELAYED_APIS:
+        if rng.random() < 0.6:
+            delays[str(api)] = [0.0, round(rng.uniform(0.1, MAX_DELAY_S), 3)]
+    damp_fails = rng.choice([0, 0, 0, 1, 2])
+    faults: dict[str, Any] = {"delay_s": delays, "seed": seed, "damp_fails": damp_fails}
+    noise, setup_at = ([], 0.05) if row == "UNINITIALIZED" else _noise(rng, length)
+    kill_at = None
+    if noise and rng.random() < 0.15:
+        kill_at = round(rng.uniform(0.2, setup_at), 3)
+    actions = [*noise, *((round(setup_at + dt, 3), SETUP, kind, arg) for dt, kind, arg in _setup(row, rng, delays))]
+    second = round(rng.uniform(0.0, 1.5), 3) if rng.random() < 0.25 else None
+    vias = ["service", "service", "topic_reliable", "topic_best_effort"]
+    return Plan(seed, faults, actions, aim, _column_action(column, row, rng), setup_at, rng.choice(vias), damp_fails,
+                length=length, gantry=_gantry(row, rng), kill_at=kill_at, second_estop_after=second,
+                second_via=rng.choice(vias))

@@ -1,0 +1,93 @@
+"""The chaos batch's design, without a sim: every cell aimed at, the coverage report, the judge of restarts."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from chaos.coverage import REQUIRED, Coverage, Landing
+from chaos.plan import SETUP, TRANSITION_DELAY_S, plan
+from chaos.scenario import Claims, judge
+from g1_mode_manager.protocol import api_ids
+
+
+def test_any_run_of_consecutive_seeds_as_long_as_the_cell_list_aims_at_every_cell() -> None:
+    for first in (0, 7000, 52017):
+        assert {plan(s).aim for s in range(first, first + len(REQUIRED))} == set(REQUIRED)
+
+
+def test_a_plan_is_its_seed() -> None:
+    assert plan(123) == plan(123)
+    assert plan(123) != plan(124)
+
+
+def test_aims_set_up_what_they_aim_at() -> None:
+    for seed in range(300):
+        p = plan(seed)
+        row, _ = p.aim
+        setup = [(kind, arg) for _, who, kind, arg in p.actions if who == SETUP]
+        if row == "UNINITIALIZED":  # nothing may connect the node before the e-stop
+            assert p.actions == [] and p.kill_at is None
+        if row in ("IDLE", "HIGH_LEVEL", "LOW_LEVEL"):
+            assert setup == [("mode", row.lower())]
+        if row == "->LOW_LEVEL":  # kept long by the robot: ReleaseMode and CheckMode answered late
+            assert setup[-1] == ("mode", "low_level")
+            for api in (api_ids.MS_RELEASE_MODE, api_ids.MS_CHECK_MODE):
+                assert p.faults["delay_s"][str(api)][0] >= TRANSITION_DELAY_S[0]
+        if p.kill_at is not None:
+            assert 0.0 < p.kill_at <= p.setup_at
+
+
+def test_lengths_reach_thirty_seconds_and_forty_actions() -> None:
+    plans = [plan(s) for s in range(400)]
+    long = [p for p in plans if p.length == "long"]
+    assert long and max(len(p.actions) for p in long) >= 35 and max(p.setup_at for p in long) > 20.0
+    assert {p.length for p in plans} == {"short", "medium", "long"}
+    assert all(plan(s, ("short",)).length == "short" for s in range(50))
+
+
+def test_coverage_reports_missing_cells_and_e_stops_before_the_first_connect() -> None:
+    cov = Coverage()
+    for row, column in REQUIRED[:-1]:
+        cov.add(Landing(row, (column,), connected=row != "UNINITIALIZED"), ["short scenarios"])
+    assert cov.missing() == [REQUIRED[-1]]
+    assert any("cells never hit" in why for why in cov.shortfalls())
+    cov.add(Landing(*REQUIRED[-1][:1], (REQUIRED[-1][1],), connected=True))
+    assert cov.missing() == [] and cov.after_connect() > 0.7 and cov.shortfalls() == []
+    for _ in range(100):
+        cov.add(Landing("UNINITIALIZED", ("nothing",), connected=False))
+    assert any("after the first connect" in why for why in cov.shortfalls())
+    table = cov.table()
+    assert "n/a" in table.splitlines()[7] and "29 of 29 cells hit" in table
+
+
+def _mode(value: int, name: str, *, t: float) -> tuple[float, SimpleNamespace]:
+    return t, SimpleNamespace(mode=value, name=name, damp_confirmed=False, holds=[], transition_in_progress=False)
+
+
+def _damped_robot(t: float) -> dict:
+    return {"k": "state", "t": t, "fsm": 1, "svc": "ai", "fsm_mode": 0}
+
+
+def _move(t: float) -> dict:
+    return {"k": "req", "t": t, "svc": "sport", "api": api_ids.LOCO_SET_VELOCITY,
+            "p": '{"velocity": [0.3, 0.0, 0.0], "duration": 1.0}', "noreply": False}
+
+
+def _judged(events: list[dict], restarts: list[tuple[float, float]], modes: list) -> list[str]:
+    claims = Claims(t_estop=9.0, restarts=restarts, modes=modes)
+    damp = {"k": "req", "t": 9.001, "svc": "sport", "api": 7101, "p": '{"data": 1}', "noreply": False}
+    end = {"sport": {"fsm_id": 1, "mode": "ai"}}
+    return judge([*events, damp, damp | {"t": 9.002}, _damped_robot(9.1)], claims, end)
+
+
+def test_the_judge_sees_motion_from_a_restarted_node_before_it_was_asked_for_a_mode() -> None:
+    killed = [(5.0, 8.0)]  # killed at 5 s, the fresh node asked for a mode at 8 s
+    assert _judged([_move(4.9), _move(8.5)], killed, []) == []
+    bad = _judged([_move(6.0)], killed, [])
+    assert bad and "after the node was killed" in bad[0]
+
+
+def test_a_fault_cut_short_by_a_kill_is_not_a_fault_left_to_uninitialized() -> None:
+    modes = [_mode(5, "FAULT", t=2.0), _mode(0, "UNINITIALIZED", t=5.5), _mode(4, "EMERGENCY", t=9.0)]
+    assert _judged([], [(5.0, 8.0)], modes) == []
+    assert any("FAULT left to UNINITIALIZED" in why for why in _judged([], [], modes))
