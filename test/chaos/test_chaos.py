@@ -7,9 +7,10 @@ requests, loco commands, streams and body faults from several clients, sometimes
 the node, then aims its e-stop at one coverage cell (plan.py, coverage.py) through the service or the topic
 (reliable or best effort), sometimes followed by a second one. See scenario.judge for the invariants.
 
-CI runs a fixed-seed batch of short scenarios (G1_CHAOS_N, default 40) in G1_CHAOS_PARTS parts (default 2:
-seeds split in consecutive ranges, each part with its own bridge); `make chaos N=500 SEED=...` runs one part
-of every length (G1_CHAOS_LENGTHS). A part prints its coverage table, then its last line:
+CI runs a fixed-seed batch of short scenarios (G1_CHAOS_N, default 30: every cell aimed at once) in
+G1_CHAOS_PARTS parts (default 2: seeds split in consecutive ranges, each part with its own bridge);
+`make chaos N=500 SEED=...` runs one part of every length (G1_CHAOS_LENGTHS). A part prints its coverage
+table, then its last line:
 `chaos: N scenarios, V violations, U unclean exits` (U: nodes that did not exit 0 within 5 s of SIGINT; their
 output, with the faulthandler's stacks, is kept beside the summary). A part of 100 scenarios or more also
 fails when its coverage falls short (every cell hit, 70 % of e-stops after the first connect).
@@ -43,7 +44,7 @@ from support.sim_record import SimRecord
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
-N = int(os.environ.get("G1_CHAOS_N", "40"))
+N = int(os.environ.get("G1_CHAOS_N", "30"))
 SEED = int(os.environ.get("G1_CHAOS_SEED", "7000"))
 SUMMARY = os.environ.get("G1_CHAOS_SUMMARY", "")
 LENGTHS = tuple(os.environ.get("G1_CHAOS_LENGTHS", "short").split(","))
