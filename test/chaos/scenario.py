@@ -204,8 +204,11 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
         if late:
             bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s into FAULT")
         end = events[-1]["t"] if events else t_fault
-        if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in history
-                                                       if t_fault <= s["t"] <= t_fault + FAULT_DAMPED_S):
+        # the state the robot was in when the claim arrived counts: the protective stop's Damp may reach the robot
+        # before ~/mode says FAULT, and a robot damped from then on records no state change in the window
+        seen = [s for s in history if s["t"] <= t_fault][-1:] + [s for s in history
+                                                                 if t_fault < s["t"] <= t_fault + FAULT_DAMPED_S]
+        if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in seen):
             bad.append(f"robot not damped within {FAULT_DAMPED_S} s of FAULT")
     for t_held, t_released in holds:
         late = [what for e in events if t_held + GRACE_S < e["t"] < t_released
