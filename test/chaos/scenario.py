@@ -244,7 +244,9 @@ def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[
                 if prev.mode == 3 and not prev.transition_in_progress and (m.mode != 3 or m.transition_in_progress)]
     for t_left in left_low:
         nxt = [t for t, m in modes if t > t_left and m.mode == 3 and not m.transition_in_progress]
-        until = nxt[0] if nxt else float("inf")
+        # the node forwards the user's frames as soon as it is in LOW_LEVEL again, and the first may reach the robot
+        # before its ~/mode says so reaches the test: a frame in flight before the claim, as after a change of state
+        until = nxt[0] - GRACE_S if nxt else float("inf")
         late = [e for e in events if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0
                 and t_left + GRACE_S < e["t"] < until]
         if late:
