@@ -12,6 +12,7 @@ terminal's Ctrl-C reaches only this process).
 from __future__ import annotations
 
 import argparse
+import json
 import signal
 import threading
 import time
@@ -46,7 +47,7 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--sample-s", type=float, default=30.0, help="sampling period, s (default 30)")
     p.add_argument("--warmup-s", type=float, default=growth.WARMUP_S, help="samples younger than this are "
                    f"not judged within a lifetime, s (default {growth.WARMUP_S:g})")  # fmt: skip
-    p.add_argument("--out", default="artifacts/soak", help="where samples.csv, soak.svg and report.md go")
+    p.add_argument("--out", default="artifacts/soak", help="where samples.csv, soak.svg, report.md and modes.jsonl go")
     p.add_argument("--keep-record", action="store_true", help="keep the sim's record even if nothing failed")
     return p.parse_args(argv)
 
@@ -59,6 +60,7 @@ class Soak:
         self.out.mkdir(parents=True, exist_ok=True)
         self.record_path = self.out / "sim_record.jsonl"
         self.record_path.unlink(missing_ok=True)
+        (self.out / "modes.jsonl").unlink(missing_ok=True)
         self.log = SampleLog(str(self.out / "samples.csv"))
         self.plan = plan_soak(args.seed, args.minutes, args.lifetime_s)
         self.violations: dict[int, list[str]] = {}
@@ -160,6 +162,7 @@ class Soak:
         if not node.alive():
             bad.append(f"the node died during lifetime {p.index} (exit {node.proc.returncode}): {node.output()[-1500:]}")
         bad += judge(record.after_last_reset(), self.claims, end_state)
+        self._save_claims(p.index)
         t_stop = time.monotonic()
         code = node.stop()
         self.node = None
@@ -172,6 +175,17 @@ class Soak:
               f"{dict(sorted(self.load.outcomes.items()))}", flush=True)  # fmt: skip
         self.load.outcomes.clear()
         return bad
+
+    def _save_claims(self, lifetime: int) -> None:
+        """What the node said on ~/mode in this lifetime, and when (the judge's input beside the sim's record)."""
+        c = self.claims
+        with c.lock, (self.out / "modes.jsonl").open("a") as f:
+            f.write(json.dumps({"lifetime": lifetime, "t_estop": c.t_estop, "estop_success": c.estop_success,
+                                "t_answer": c.t_answer}) + "\n")  # fmt: skip
+            for t, m in c.modes:
+                f.write(json.dumps({"lifetime": lifetime, "t": t, "mode": m.name, "transition": m.transition_in_progress,
+                                    "damp_confirmed": m.damp_confirmed, "faults": list(m.faults),
+                                    "holds": list(m.holds), "last_refusal": m.last_refusal}) + "\n")  # fmt: skip
 
     def _estop(self, p: Lifetime, topic_pub: Any) -> list[str]:
         from std_msgs.msg import Bool
@@ -227,8 +241,9 @@ class Soak:
         (self.out / "report.md").write_text("\n".join(text) + "\n")
         write_svg(rows, str(self.out / "soak.svg"), f"make soak: seed {a.seed}, {minutes:.0f} min, "
                   f"a sample every {a.sample_s:g} s, node restarts dashed")  # fmt: skip
-        if n_bad == 0 and not a.keep_record:
+        if n_bad == 0 and not a.keep_record:  # the judge's inputs are kept only where something failed
             self.record_path.unlink(missing_ok=True)
+            (self.out / "modes.jsonl").unlink(missing_ok=True)
         print("\n".join(text), flush=True)
         complete = len(self.violations) == len(self.plan)
         return 0 if n_bad == 0 and not grew and complete else 1
