@@ -134,15 +134,15 @@ class Soak:
         self.node = node = start_mode_manager(self.sdk_domain)
         t_ready = time.monotonic()
         self.stack.node, self.stack.record = node, record
+        sampler = Sampler(self.log, lifetime=p.index, pid=node.proc.pid, bridge_pid=self.bridge.proc.pid,
+                          t_ready=t_ready, t_run0=self.t0, period_s=self.args.sample_s, until_age_s=p.length_s,
+                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name)  # fmt: skip
+        sampler.start()  # before waiting for discovery: its first sample is the node at its ready line
         self.ros.wait_node_answers(NODE)
         bad: list[str] = []
         estop_pub = self.estop_pubs.get(p.estop_via)
         if estop_pub is not None and not wait_until(lambda: estop_pub.get_subscription_count() >= 1, 10.0):
             bad.append(f"the node's /estop subscription did not match within 10 s ({p.estop_via})")
-        sampler = Sampler(self.log, lifetime=p.index, pid=node.proc.pid, bridge_pid=self.bridge.proc.pid,
-                          t_ready=t_ready, t_run0=self.t0, period_s=self.args.sample_s, until_age_s=p.length_s,
-                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name)  # fmt: skip
-        sampler.start()
         self.load_stop = stop = threading.Event()
         operators = self.load.start(p, t_ready, stop)
         time.sleep(max(0.0, t_ready + p.length_s - time.monotonic()))
