@@ -9,7 +9,7 @@ SIDE_VENV ?= .venv-cyclone010
 
 MSG_SOURCES := $(shell find msg_defs -type f)
 
-.PHONY: setup run test lint bench chaos exits clean
+.PHONY: setup run test lint bench chaos exits soak clean
 
 setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets $(SIDE_VENV)/.stamp
 
@@ -71,6 +71,18 @@ chaos: setup
 # Start, operate and SIGINT the node N times (`make exits N=1000`); its last line is `exits: N cycles, U unclean`.
 exits: setup
 	PYTHONPATH=test$${PYTHONPATH:+:$$PYTHONPATH} $(BIN)/python -m exits --cycles $(N) --seed $(SEED)
+
+# A long run of the real node and sim under a steady random load: `make soak MINUTES=30 SEED=1`. Node lifetimes
+# of about LIFETIME s, each ended by an e-stop and judged by the chaos invariants; the node's RSS, threads, fds and
+# DDS entities sampled every SAMPLE s and judged for growth (docs/soak.md). Its last line is
+# `soak: M minutes, V violations, growth: none|<what grew>`; samples.csv, soak.svg and report.md go to OUT.
+MINUTES ?= 30
+LIFETIME ?= 300
+SAMPLE ?= 30
+OUT ?= artifacts/soak
+soak: setup
+	PYTHONPATH=test$${PYTHONPATH:+:$$PYTHONPATH} $(BIN)/python -m soak --minutes $(MINUTES) --seed $(SEED) \
+		--lifetime-s $(LIFETIME) --sample-s $(SAMPLE) --out $(OUT)
 
 clean:
 	rm -rf $(VENV) $(SIDE_VENV) build *.egg-info

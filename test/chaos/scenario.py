@@ -157,8 +157,11 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
         if late:
             bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s into FAULT")
         end = min(events[-1]["t"] if events else t_fault, killed_at)  # a killed node keeps nothing damped
-        if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in history
-                                                       if t_fault <= s["t"] <= t_fault + FAULT_DAMPED_S):
+        # the state the robot was in when the claim arrived counts: the protective stop's Damp may reach the robot
+        # before ~/mode says FAULT, and a robot damped from then on records no state change in the window
+        seen = [s for s in history if s["t"] <= t_fault][-1:] + [s for s in history
+                                                                 if t_fault < s["t"] <= t_fault + FAULT_DAMPED_S]
+        if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in seen):
             bad.append(f"robot not damped within {FAULT_DAMPED_S} s of FAULT")
     for t_held, t_released in holds:
         late = [what for e in events if t_held + GRACE_S < e["t"] < t_released
@@ -194,7 +197,9 @@ def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[
                 if prev.mode == 3 and not prev.transition_in_progress and (m.mode != 3 or m.transition_in_progress)]
     for t_left in left_low:
         nxt = [t for t, m in modes if t > t_left and m.mode == 3 and not m.transition_in_progress]
-        until = nxt[0] if nxt else float("inf")
+        # the node forwards the user's frames as soon as it is in LOW_LEVEL again, and the first may reach the robot
+        # before its ~/mode says so reaches the test: a frame in flight before the claim, as after a change of state
+        until = nxt[0] - GRACE_S if nxt else float("inf")
         late = [e for e in events if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0
                 and t_left + GRACE_S < e["t"] < until]
         if late:

@@ -84,6 +84,18 @@ def test_clear_waits_until_the_robot_was_seen_damped() -> None:
     assert rig.machine.clear_fault(*ALL_CLEAR).success and rig.machine.mode is ID
 
 
+def test_leaving_fault_leaves_no_damp_confirmed_behind() -> None:
+    """damp_confirmed is the stop's claim: IDLE after a clear, and the modes after it, make none (LOW_LEVEL
+    releases the robot, and a client reading the flag would believe it damped)."""
+    rig = make_rig()
+    rig.bring_to(FA)
+    assert rig.machine.status().damp_confirmed
+    assert rig.machine.clear_fault(*ALL_CLEAR).success
+    assert rig.machine.mode is ID and not rig.machine.status().damp_confirmed
+    assert rig.machine.request(LO).success
+    assert not rig.machine.status().damp_confirmed and not rig.robot.damped
+
+
 def test_clear_outside_fault_without_holds_is_refused() -> None:
     rig = make_rig()
     rig.bring_to(HI)

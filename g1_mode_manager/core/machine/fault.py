@@ -88,8 +88,8 @@ class FaultStop:
             else:
                 release()
                 state.holds = ()
-                if isinstance(rule, Transition):
-                    state.mode, state.faults = Mode.IDLE, ()
+                if isinstance(rule, Transition):  # damp_confirmed was the stop's claim: IDLE makes none
+                    state.mode, state.faults, state.damp_confirmed = Mode.IDLE, (), False
                 state.version += 1
                 mode = None
         if mode is not None:

@@ -1,0 +1,6 @@
+"""The soak run (``make soak MINUTES=30``): the real node and sim under a steady random load for a long time,
+its resources sampled and judged for growth, every node lifetime judged by the chaos invariants.
+
+Only the ``test_*.py`` files here are collected by pytest (fast unit tests of the pure parts: the load's
+schedule and the growth rule); the run itself is ``python -m soak`` with ``test/`` on the path. See docs/soak.md.
+"""

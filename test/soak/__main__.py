@@ -1,0 +1,13 @@
+"""``python -m soak`` (with test/ on the path; ``make soak`` does it): see soak.run."""
+
+from __future__ import annotations
+
+import sys
+
+from support.standalone import isolate
+
+_, _SDK_DOMAIN = isolate()
+
+from soak.run import main  # noqa: E402
+
+sys.exit(main(sdk_domain=_SDK_DOMAIN))

@@ -1,0 +1,278 @@
+"""The soak run: the real sim bridge (with its record, the robot hung in its gantry) and the real node, node
+lifetime after node lifetime, each under the planned random load (soak.schedule) and ended by an e-stop, then
+the node restarted and the robot reset. Every lifetime is judged like a chaos scenario (chaos.scenario.judge,
+on the sim's record of that lifetime); the node's resources are sampled at fixed ages (soak.sampler) and judged
+for growth (soak.growth). Writes samples.csv, soak.svg and report.md to ``--out``; its last line is
+``soak: M minutes, V violations, growth: none|<what grew>``, and it exits non-zero on a violation or growth.
+
+Every process it starts is stopped at the end, on Ctrl-C or SIGTERM too (they run in sessions of their own, so a
+terminal's Ctrl-C reaches only this process).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import threading
+import time
+import traceback
+from pathlib import Path
+from typing import Any
+
+from chaos.scenario import Claims, judge
+from e2e.conftest import Stack
+from soak import growth, report
+from soak.load import NO_FAULTS, Load
+from soak.sampler import SampleLog, Sampler
+from soak.schedule import Lifetime, plan_soak
+from soak.svg_plot import write_svg
+from support.mode_manager import RosClient, start_mode_manager, wait_until
+from support.processes import ManagedProcess
+from support.sim_bridge import shared_sim_status, start_sim_bridge
+from support.sim_record import SimRecord, damped, is_damp, requests
+
+NODE = "/g1_mode_manager"
+ESTOP_TIMEOUT_S = 40.0  # the e-stop's bound (estop_timeout_s 10 s + a call) with room for a starved machine
+AFTER_ESTOP_S = 2.0  # the streams go on this long after the e-stop: none of it may reach the robot
+SETTLE_S = 12.0  # after the e-stop the robot must be seen damped within this (as in the chaos suite)
+LOAD_JOIN_S = 40.0  # an operator's call in flight at the e-stop (a set_mode waits up to 20 s)
+
+
+def parse(argv: list[str] | None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m soak", description=__doc__.split("\n\n")[0])
+    p.add_argument("--minutes", type=float, default=30.0, help="how long the run lasts (about; default 30)")
+    p.add_argument("--seed", type=int, default=None, help="the load's seed (default: from the clock; printed)")
+    p.add_argument("--lifetime-s", type=float, default=300.0, help="a node lifetime's mean length, s (default 300)")
+    p.add_argument("--sample-s", type=float, default=30.0, help="sampling period, s (default 30)")
+    p.add_argument("--warmup-s", type=float, default=growth.WARMUP_S, help="samples younger than this are "
+                   f"not judged within a lifetime, s (default {growth.WARMUP_S:g})")  # fmt: skip
+    p.add_argument("--out", default="artifacts/soak", help="where samples.csv, soak.svg, report.md and modes.jsonl go")
+    p.add_argument("--keep-record", action="store_true", help="keep the sim's record even if nothing failed")
+    return p.parse_args(argv)
+
+
+class Soak:
+    def __init__(self, args: argparse.Namespace, sdk_domain: int) -> None:
+        self.args = args
+        self.sdk_domain = sdk_domain
+        self.out = Path(args.out)
+        self.out.mkdir(parents=True, exist_ok=True)
+        self.record_path = self.out / "sim_record.jsonl"
+        self.record_path.unlink(missing_ok=True)
+        (self.out / "modes.jsonl").unlink(missing_ok=True)
+        self.log = SampleLog(str(self.out / "samples.csv"))
+        self.plan = plan_soak(args.seed, args.minutes, args.lifetime_s)
+        self.violations: dict[int, list[str]] = {}
+        self.notes: list[str] = []  # not violations: unclean exits, sampling errors, the load's timeouts
+        self.t0 = time.monotonic()
+        self.bridge: ManagedProcess | None = None
+        self.node: ManagedProcess | None = None
+        self.ros: RosClient | None = None
+        self.claims = Claims()
+        self.load_stop = threading.Event()
+
+    # --- the parts, made once ---------------------------------------------------------------------------------
+    def start(self) -> None:
+        from g1_mode_manager_msgs.msg import Mode
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from std_msgs.msg import Bool
+
+        from g1_mode_manager.protocol.dds import init_channels
+        from g1_mode_manager.topic_qos import MODE_QOS
+        from soak.probes import CycloneGraph
+
+        init_channels(self.sdk_domain, "lo")  # this process's SDK clients: the sim's status, Cyclone's discovery
+        self.bridge = start_sim_bridge(self.sdk_domain, speed=1.0,
+                                       extra_args=("--record", str(self.record_path), "--gantry"))  # fmt: skip
+        self.ros = RosClient("soak_client")
+        self.sim = shared_sim_status()
+        self.sim.wait_ready(15.0)
+        self.cyclone = CycloneGraph()
+        self.stack = Stack(self.bridge, None, self.ros, self.sim, None)  # type: ignore[arg-type]  # node: per lifetime
+        node = self.ros.node
+        node.create_subscription(Mode, self.stack.name("mode"), self._on_mode, MODE_QOS)
+        self.estop_pubs = {"topic_reliable": node.create_publisher(Bool, "/estop", QoSProfile(depth=10)),
+                           "topic_best_effort": node.create_publisher(
+                               Bool, "/estop", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))}  # fmt: skip
+        self.load = Load(self.stack, self._last_mode)
+        self.load.publishers()
+
+    def _on_mode(self, msg: Any) -> None:
+        claims = self.claims
+        with claims.lock:
+            claims.modes.append((time.monotonic(), msg))
+
+    def _last_mode(self) -> int | None:
+        with self.claims.lock:
+            return self.claims.modes[-1][1].mode if self.claims.modes else None
+
+    def _last_mode_name(self) -> str:
+        with self.claims.lock:
+            return self.claims.modes[-1][1].name if self.claims.modes else ""
+
+    # --- the run ----------------------------------------------------------------------------------------------
+    def run(self) -> None:
+        a = self.args
+        print(f"soak: seed {a.seed}, {len(self.plan)} node lifetimes of "
+              f"{', '.join(f'{p.length_s:.0f}' for p in self.plan)} s, sampled every {a.sample_s:g} s; out {self.out}",
+              flush=True)  # fmt: skip
+        self.start()
+        for p in self.plan:
+            bad = self.lifetime(p)
+            self.violations[p.index] = bad
+            for b in bad:
+                print(f"soak: VIOLATION lifetime {p.index} (seed {a.seed}): {b}", flush=True)
+
+    def lifetime(self, p: Lifetime) -> list[str]:
+        """One node, from its start to its e-stop and stop: the violations of the chaos invariants in it."""
+        assert self.ros is not None and self.bridge is not None
+        record = SimRecord(self.record_path, from_now=True)  # from just before the reset: it holds the boot state
+        self.sim.reset()
+        self.stack.set_faults(NO_FAULTS)  # the reset cleared the robot's; the parameter must say so too
+        self.claims = Claims()
+        self.node = node = start_mode_manager(self.sdk_domain)
+        t_ready = time.monotonic()
+        self.stack.node, self.stack.record = node, record
+        sampler = Sampler(self.log, lifetime=p.index, pid=node.proc.pid, bridge_pid=self.bridge.proc.pid,
+                          t_ready=t_ready, t_run0=self.t0, period_s=self.args.sample_s, until_age_s=p.length_s,
+                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name)  # fmt: skip
+        sampler.start()  # before waiting for discovery: its first sample is the node at its ready line
+        self.ros.wait_node_answers(NODE)
+        bad: list[str] = []
+        estop_pub = self.estop_pubs.get(p.estop_via)
+        if estop_pub is not None and not wait_until(lambda: estop_pub.get_subscription_count() >= 1, 10.0):
+            bad.append(f"the node's /estop subscription did not match within 10 s ({p.estop_via})")
+        self.load_stop = stop = threading.Event()
+        operators = self.load.start(p, t_ready, stop)
+        time.sleep(max(0.0, t_ready + p.length_s - time.monotonic()))
+        bad += self._estop(p, estop_pub)
+        time.sleep(AFTER_ESTOP_S)
+        stop.set()
+        for th in operators:
+            th.join(LOAD_JOIN_S)
+        sampler.stop()
+        self.notes += [f"lifetime {p.index} sampling: {e}" for e in sampler.errors]
+        self.stack.set_faults(NO_FAULTS)  # a lost link the e-stop cut short comes back
+        t_estop = self.claims.t_estop
+        wait_until(lambda: _damped(self.sim.get()) and any(is_damp(e) for e in requests(record.events(t_estop))),
+                   SETTLE_S, 0.1)  # fmt: skip
+        time.sleep(0.3)
+        end_state = self.sim.get()
+        if not node.alive():
+            bad.append(f"the node died during lifetime {p.index} (exit {node.proc.returncode}): {node.output()[-1500:]}")
+        bad += judge(record.after_last_reset(), self.claims, end_state)
+        self._save_claims(p.index)
+        t_stop = time.monotonic()
+        code = node.stop()
+        self.node = None
+        if code not in (0, None) or time.monotonic() - t_stop > 5.0:
+            self.notes.append(f"lifetime {p.index}: the node exited {code} after {time.monotonic() - t_stop:.1f} s "
+                              f"on SIGINT: {node.output()[-1500:]}")  # fmt: skip
+        self.ros.wait_service_gone(f"{NODE}/set_mode")
+        print(f"soak: lifetime {p.index} done at {(time.monotonic() - self.t0) / 60:.1f} min: {p.length_s:.0f} s, "
+              f"e-stop via {p.estop_via} ({self._estop_said()}), {len(bad)} violations, exit {code}; load "
+              f"{dict(sorted(self.load.outcomes.items()))}", flush=True)  # fmt: skip
+        self.load.outcomes.clear()
+        return bad
+
+    def _save_claims(self, lifetime: int) -> None:
+        """What the node said on ~/mode in this lifetime, and when (the judge's input beside the sim's record)."""
+        c = self.claims
+        with c.lock, (self.out / "modes.jsonl").open("a") as f:
+            f.write(json.dumps({"lifetime": lifetime, "t_estop": c.t_estop, "estop_success": c.estop_success,
+                                "t_answer": c.t_answer}) + "\n")  # fmt: skip
+            for t, m in c.modes:
+                f.write(json.dumps({"lifetime": lifetime, "t": t, "mode": m.name, "transition": m.transition_in_progress,
+                                    "damp_confirmed": m.damp_confirmed, "faults": list(m.faults),
+                                    "holds": list(m.holds), "last_refusal": m.last_refusal}) + "\n")  # fmt: skip
+
+    def _estop(self, p: Lifetime, topic_pub: Any) -> list[str]:
+        from std_msgs.msg import Bool
+        from std_srvs.srv import Trigger
+
+        claims = self.claims
+        claims.t_estop = time.monotonic()
+        if topic_pub is not None:
+            topic_pub.publish(Bool(data=True))
+            return []
+        assert self.ros is not None
+        try:
+            reply = self.ros.call(Trigger, f"{NODE}/estop", Trigger.Request(), ESTOP_TIMEOUT_S)
+        except TimeoutError as e:
+            return [f"e-stop: {e}"]
+        claims.t_answer, claims.estop_success = time.monotonic(), reply.success
+        return []
+
+    def _estop_said(self) -> str:
+        c = self.claims
+        if c.estop_success is None:
+            return "topic"
+        return f"success {c.estop_success} after {c.t_answer - c.t_estop:.3f} s"
+
+    # --- the end ----------------------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Stop everything this run started (each step whatever the one before did)."""
+        self.load_stop.set()
+        for proc in (self.node, self.bridge):
+            if proc is not None and proc.alive():
+                code = proc.stop()
+                if code not in (0, None):
+                    print(f"soak: {proc.name} exited {code}; its last output:\n{proc.output()[-2000:]}", flush=True)
+        if self.ros is not None:
+            self.ros.close()
+        self.log.close()
+
+    def finish(self, failure: str = "") -> int:
+        """The report, the plot and the last line; the exit status (0: no violation, no growth, the whole run)."""
+        a, rows = self.args, self.log.rows
+        minutes = (time.monotonic() - self.t0) / 60
+        grew = growth.judge_growth(rows, warmup_s=a.warmup_s)
+        n_bad = sum(len(v) for v in self.violations.values()) + bool(failure)
+        counts = {k: len(v) for k, v in self.violations.items()}
+        text = [f"# soak seed {a.seed}: {minutes:.1f} min, {len(self.violations)} of {len(self.plan)} lifetimes run, "
+                f"sampled every {a.sample_s:g} s, warm-up {a.warmup_s:g} s", "",
+                "Each figure at age 0 → the first sample after the warm-up → the last sample before the e-stop.", "",
+                *report.figures_table(rows, a.warmup_s, counts), "", "Noise (growth.noise) and thresholds:",
+                *report.noise_lines(rows, a.warmup_s), ""]  # fmt: skip
+        text += [f"violation, lifetime {k}: {b}" for k, v in self.violations.items() for b in v]
+        text += [f"note: {n}" for n in self.notes] + ([f"the run failed: {failure}"] if failure else [])
+        text.append(report.last_line(minutes, n_bad, grew))
+        (self.out / "report.md").write_text("\n".join(text) + "\n")
+        write_svg(rows, str(self.out / "soak.svg"), f"make soak: seed {a.seed}, {minutes:.0f} min, "
+                  f"a sample every {a.sample_s:g} s, node restarts dashed")  # fmt: skip
+        if n_bad == 0 and not a.keep_record:  # the judge's inputs are kept only where something failed
+            self.record_path.unlink(missing_ok=True)
+            (self.out / "modes.jsonl").unlink(missing_ok=True)
+        print("\n".join(text), flush=True)
+        complete = len(self.violations) == len(self.plan)
+        return 0 if n_bad == 0 and not grew and complete else 1
+
+
+def _damped(status: dict[str, Any]) -> bool:
+    return damped({"fsm": status["sport"]["fsm_id"], "svc": status["sport"]["mode"]})
+
+
+def _interrupt(_signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None, *, sdk_domain: int) -> int:
+    args = parse(argv)
+    if args.seed is None:
+        args.seed = int(time.time())
+    signal.signal(signal.SIGTERM, _interrupt)
+    soak = Soak(args, sdk_domain)
+    failure = ""
+    try:
+        soak.run()
+    except KeyboardInterrupt:
+        failure = "interrupted"
+    except Exception as e:  # the report still says what was sampled and judged until then
+        traceback.print_exc()
+        failure = repr(e)
+    finally:
+        print("soak: stopping everything it started", flush=True)
+        soak.close()
+    code = soak.finish(failure)
+    return 130 if failure == "interrupted" else code
