@@ -228,7 +228,7 @@ class Soak:
         a, rows = self.args, self.log.rows
         minutes = (time.monotonic() - self.t0) / 60
         grew = growth.judge_growth(rows, warmup_s=a.warmup_s)
-        n_bad = sum(len(v) for v in self.violations.values()) + bool(failure)
+        n_bad = sum(len(v) for v in self.violations.values())  # a failed run says so on the line above the last
         counts = {k: len(v) for k, v in self.violations.items()}
         text = [f"# soak seed {a.seed}: {minutes:.1f} min, {len(self.violations)} of {len(self.plan)} lifetimes run, "
                 f"sampled every {a.sample_s:g} s, warm-up {a.warmup_s:g} s", "",
@@ -241,12 +241,12 @@ class Soak:
         (self.out / "report.md").write_text("\n".join(text) + "\n")
         write_svg(rows, str(self.out / "soak.svg"), f"make soak: seed {a.seed}, {minutes:.0f} min, "
                   f"a sample every {a.sample_s:g} s, node restarts dashed")  # fmt: skip
-        if n_bad == 0 and not a.keep_record:  # the judge's inputs are kept only where something failed
+        if n_bad == 0 and not failure and not a.keep_record:  # the judge's inputs are kept where something failed
             self.record_path.unlink(missing_ok=True)
             (self.out / "modes.jsonl").unlink(missing_ok=True)
         print("\n".join(text), flush=True)
         complete = len(self.violations) == len(self.plan)
-        return 0 if n_bad == 0 and not grew and complete else 1
+        return 0 if n_bad == 0 and not grew and complete and not failure else 1
 
 
 def _damped(status: dict[str, Any]) -> bool:
