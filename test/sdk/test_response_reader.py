@@ -55,7 +55,10 @@ def test_a_closed_client_takes_no_reply_into_python(sdk_channels: int) -> None:
     before = replies.expect(1)
     assert wait_until(lambda: (answer(1) or True) and before.done.is_set(), 5.0), "no reply taken before close"
     client.close()
-    after = replies.expect(2)
+    assert replies.expect(2).closed, "a call after close must end at once, not wait for a reply"
+    from g1_mode_manager.sdk.response_reader import Pending
+
+    watch = replies._pending[3] = Pending()  # what the listener would wake, were Cyclone still calling it
     for _ in range(20):
-        answer(2)
-    assert not after.done.wait(0.5), "a reply was taken after close"
+        answer(3)
+    assert not watch.done.wait(0.5), "a reply was taken after close"
