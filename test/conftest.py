@@ -6,16 +6,9 @@ stays on 127.0.0.1 and on domains no other run of this machine uses at the same 
 
 from __future__ import annotations
 
-import os
+from support.standalone import isolate
 
-from support.domains import allocate_run_domains
-
-_ROS_DOMAIN, _SDK_DOMAIN = allocate_run_domains()
-os.environ["ROS_DOMAIN_ID"] = str(_ROS_DOMAIN)
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-os.environ.pop("ROS_STATIC_PEERS", None)
-os.environ["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
-os.environ["G1_TEST_SDK_DOMAIN"] = str(_SDK_DOMAIN)
+_ROS_DOMAIN, _SDK_DOMAIN = isolate()
 
 import pytest  # noqa: E402
 

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 from support.standalone import isolate
 
 _, _SDK_DOMAIN = isolate()
+os.environ["PYTHONFAULTHANDLER"] = "1"  # a node that crashes prints every thread's Python stack
 
 from soak.run import main  # noqa: E402
 

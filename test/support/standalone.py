@@ -1,4 +1,4 @@
-"""A run outside pytest (``make soak``, ``make exits``) isolated like the test suite (test/conftest.py).
+"""Isolation of a run (the test suite's conftest, ``make soak``, ``make exits``) from every other on this machine.
 
 Call ``isolate()`` before anything imports rclpy or cyclonedds.
 """
@@ -11,13 +11,12 @@ from support.domains import allocate_run_domains
 
 
 def isolate() -> tuple[int, int]:
-    """Domains of its own (held by file locks until the process exits), loopback only, the node's RMW, and the
-    faulthandler on in every child; returns (ROS_DOMAIN_ID, SDK domain)."""
+    """Domains of its own (held by file locks until the process exits), loopback only, the node's RMW; returns
+    (ROS_DOMAIN_ID, SDK domain)."""
     ros_domain, sdk_domain = allocate_run_domains()
     os.environ["ROS_DOMAIN_ID"] = str(ros_domain)
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     os.environ.pop("ROS_STATIC_PEERS", None)
     os.environ["RMW_IMPLEMENTATION"] = "rmw_fastrtps_cpp"
     os.environ["G1_TEST_SDK_DOMAIN"] = str(sdk_domain)
-    os.environ["PYTHONFAULTHANDLER"] = "1"  # a node that crashes prints every thread's Python stack
     return ros_domain, sdk_domain
