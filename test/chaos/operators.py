@@ -19,11 +19,14 @@ from chaos.plan import SETUP, STREAMS, Plan
 #: The longest any operator call waits for its answer, s (a transition with injected delays takes < 10 s).
 CALL_TIMEOUT_S = 15.0
 _COLUMN_OF = {"mode": "mode call", "loco": "loco command", **dict.fromkeys(STREAMS, "stream")}
+#: How long the setup asks again (every 0.5 s) for a mode it was refused, s: within the aim's deadline.
+SETUP_RETRY_S = 7.0
 _STREAM_RATE_HZ = {"drive": 50.0, "arm": 50.0, "lowcmd": 100.0}
 
 
 class Operators:
-    """Runs a plan's actions against ``stack``; ``row_reached`` starts the column action."""
+    """Runs a plan's actions against ``stack``; ``row_reached`` starts a stream column, ``send_column`` sends a
+    request column."""
 
     def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event) -> None:
         self._stack = stack
@@ -55,7 +58,16 @@ class Operators:
                 continue
             if self._stop.wait(max(0.0, t0 + at - time.monotonic())):
                 return
-            self.act(kind, arg)
+            reply = self.act(kind, arg)
+            # a setup's mode request refused (the noise's transition still in progress, or a FAULT the noise
+            # caused after the settling) is asked again, or the aimed row is never reached
+            until = time.monotonic() + SETUP_RETRY_S
+            while k == SETUP and kind == "mode" and reply is not None and not reply.success:
+                if time.monotonic() > until or self._stop.wait(0.5):
+                    break
+                if fault_claimed():
+                    self._clear(fault_claimed)
+                reply = self.act(kind, arg)
 
     def _settle(self, t0: float, fault_claimed: Any) -> bool:
         """Before the setup: wait for the restarted node, then undo the noise's body faults and clear them."""
@@ -65,38 +77,69 @@ class Operators:
             if self._stop.is_set():
                 return False
         if fault_claimed():
-            self._stack.set_faults(self._plan.faults)
-            deadline = time.monotonic() + 4.0
-            while fault_claimed() and time.monotonic() < deadline and not self._stop.wait(0.5):
-                self.act("clear", "")
+            self._clear(fault_claimed)
         return True
 
+    def _clear(self, fault_claimed: Any) -> None:
+        """Undo the noise's body faults in the sim and call clear_fault until the node leaves FAULT (4 s)."""
+        self._stack.set_faults(self._plan.faults)
+        deadline = time.monotonic() + 4.0
+        while fault_claimed() and time.monotonic() < deadline and not self._stop.wait(0.5):
+            self.act("clear", "")
+
     def _column(self) -> None:
-        if self._plan.column_action is None:
-            return
+        if self._plan.column_action is None or self._plan.column_action[0] not in STREAMS:
+            return  # a request column is sent by the aim itself (send_column)
         while not self.row_reached.wait(0.1):
             if self._stop.is_set():
                 return
         self.act(*self._plan.column_action)
 
-    def act(self, kind: str, arg: Any) -> None:
+    def send_column(self) -> bool:
+        """Send the column's request (a mode call or a loco command) without waiting for its answer; False for
+        a stream column (run by its own thread once ``row_reached``) or none.
+
+        The node refuses a loco command outside HIGH_LEVEL within a few ms: a thread that sent it and another
+        that saw it sent would rarely get an e-stop out before the answer. Sent from the aim's own thread, the
+        e-stop follows the request at once, and the landing still observes whether it was answered by then.
+        """
+        action = self._plan.column_action
+        if action is None or action[0] not in ("mode", "loco"):
+            return False
+        kind, arg = action
+        stack = self._stack
+        if kind == "mode":
+            self.mode_calls.append(time.monotonic())
+            srv, name, request = SetMode, stack.name("set_mode"), SetMode.Request(mode_name=arg)
+        else:
+            srv, name, request = LocoCommand, stack.name("loco_command"), LocoCommand.Request(command=arg)
+        client = stack.ros.client(srv, name)
+        if not client.wait_for_service(timeout_sec=5.0):
+            return True  # a killed node's successor not up yet: the landing shows nothing in flight
+        column = _COLUMN_OF[kind]
+        self._in_flight.begin(column)
+        client.call_async(request).add_done_callback(lambda _f: self._in_flight.end(column))
+        return True
+
+    def act(self, kind: str, arg: Any) -> Any:
+        """Do one action; a mode request's reply (None if unanswered), else None."""
         column = _COLUMN_OF.get(kind)
         if kind == "mode":
             self.mode_calls.append(time.monotonic())
         if column is not None:
             self._in_flight.begin(column)
         try:
-            self._act(kind, arg)
+            return self._act(kind, arg)
         except (TimeoutError, RuntimeError):  # a killed node leaves calls unanswered
-            pass
+            return None
         finally:
             if column is not None:
                 self._in_flight.end(column)
 
-    def _act(self, kind: str, arg: Any) -> None:
+    def _act(self, kind: str, arg: Any) -> Any:
         stack, ros = self._stack, self._stack.ros
         if kind == "mode":
-            ros.call(SetMode, stack.name("set_mode"), SetMode.Request(mode_name=arg), CALL_TIMEOUT_S, 5.0)
+            return ros.call(SetMode, stack.name("set_mode"), SetMode.Request(mode_name=arg), CALL_TIMEOUT_S, 5.0)
         elif kind == "loco":
             ros.call(LocoCommand, stack.name("loco_command"), LocoCommand.Request(command=arg), CALL_TIMEOUT_S, 5.0)
         elif kind == "body":
@@ -109,6 +152,7 @@ class Operators:
             ros.call(Trigger, stack.name("clear_fault"), Trigger.Request(), CALL_TIMEOUT_S, 5.0)
         elif kind in STREAMS:
             _stream(stack, kind, float(arg or 0.5), self._stop)
+        return None
 
 
 _PUBLISHERS: dict[tuple[int, str], Any] = {}

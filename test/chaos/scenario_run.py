@@ -119,11 +119,16 @@ class ScenarioRun:
         pub = self.ends.estop_pubs.get(p.estop_via)
         assert pub is None or wait_until(lambda: pub.get_subscription_count() >= 1, 10.0)
         deadline = max(t0 + p.setup_at, time.monotonic()) + AIM_DEADLINE_S
+        sent = False
         while time.monotonic() < deadline:
             if _row(claims) == row:
                 ops.row_reached.set()
                 if column in in_flight.columns():
                     break
+                if not sent:
+                    sent = ops.send_column()
+                    if sent:
+                        continue  # the e-stop goes out now if the request is still unanswered
             in_flight.wait(0.002)
         if column in ("nothing", "stream"):  # somewhere inside it, not only at its start
             time.sleep(rng.uniform(0.0, 0.3))

@@ -51,11 +51,15 @@ class RosClient:
         """Call a service through a client made once per (type, name) and kept: destroying a client while
         this client's executor waits on it kills the executor's thread (rclpy InvalidHandle), and every
         later call then times out (seen with 8 threads calling at once)."""
+        return call_client(self.client(srv_type, name), name, request, timeout_s, discovery_timeout_s)
+
+    def client(self, srv_type, name: str):
+        """The kept client of (``srv_type``, ``name``), made on first use."""
         with self._clients_lock:
             client = self._clients.get((srv_type, name))
             if client is None:
                 client = self._clients[(srv_type, name)] = self.node.create_client(srv_type, name)
-        return call_client(client, name, request, timeout_s, discovery_timeout_s)
+        return client
 
     def wait_node_answers(self, node_name: str = "/g1_mode_manager", timeout_s: float = 20.0) -> None:
         """Call the node's get_parameters service until it answers: once a request and its response
