@@ -20,6 +20,9 @@ FAULT_DAMPED_S = 12.0
 #: The node's stream limits (defaults of config/mode_manager.yaml), for the judge.
 ARM_STEP = 1.0 / (2.0 * 50.0)  # arm_ramp_time_s 2 s at 50 Hz: the most the weight may change per frame
 MOVE_STEP = (1.5 * 0.05, 1.0 * 0.05, 3.0 * 0.05)  # max_ax, max_ay, max_awz times one 20 Hz tick
+#: The soonest a node started after a SIGKILL can publish its first ``~/mode``, s (a process start and
+#: rclpy's import alone take longer).
+SUCCESSOR_EARLIEST_S = 0.3
 GRACE_S = 0.06  # a frame in flight, plus one rt/sportmodestate period, after a change of state
 
 
@@ -87,8 +90,10 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
             if at is None or not damped(at):
                 bad.append(f"~/mode claimed damped at {t:.3f} while the robot was {at}")
                 break
-    kills = [t for t, _ in claims.restarts]
-    for lo, hi in itertools.pairwise([float("-inf"), *kills, float("inf")]):  # one node's life each
+    # one node's life each; a claim received just after a kill is the killed node's, sent before it died (a
+    # fresh node takes far longer than SUCCESSOR_EARLIEST_S to start and publish)
+    kills = [t + SUCCESSOR_EARLIEST_S for t, _ in claims.restarts]
+    for lo, hi in itertools.pairwise([float("-inf"), *kills, float("inf")]):
         life = [(t, m) for t, m in modes if lo <= t < hi]
         bad += _judge_streams(events, history, life)
         bad += _judge_faults(events, history, life, killed_at=hi)
