@@ -177,7 +177,8 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
 
 
 def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[float, Any]]) -> list[str]:
-    """The stream invariants (issue 8), on the frames and Moves the robot received."""
+    """The stream invariants (arm weight ramps, Move steps, no user frames outside LOW_LEVEL), on what the robot
+    received."""
     bad: list[str] = []
     accepting = (4, 500, 501, 801, 802)
 
