@@ -13,6 +13,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from g1_mode_manager_msgs.msg import Mode
@@ -146,7 +147,10 @@ class ScenarioRun:
         if first:
             claims.t_estop = t
         if via == "service":
-            reply = _call(self.ends.estop_client, 40.0)
+            try:
+                reply = _call(self.ends.estop_client, 40.0)
+            except TimeoutError as e:
+                raise TimeoutError(f"{e}; {self._diagnosis()}") from None
             if first:
                 claims.t_answer, claims.estop_success = time.monotonic(), reply.success
             else:
@@ -168,8 +172,29 @@ class ScenarioRun:
         try:
             self.stack.node = self._restart()
             self.stack.ros.wait_node_answers(f"{self.stack.ns}/g1_mode_manager")
+        except TimeoutError as e:
+            print(f"chaos seed {self.plan.seed}: the restarted node did not answer: {e}; {self._diagnosis()}", flush=True)
+            raise
         finally:
             ops.node_back.set()
+
+    def _diagnosis(self) -> str:
+        """Which side is stuck when the node does not answer: the node (dead, or alive with its services in the
+        graph but serving nothing) or the test's kept clients (a fresh client gets an answer)."""
+        from rcl_interfaces.srv import GetParameters
+
+        from g1_mode_manager.cli.client import call_service
+
+        node, ros, name = self.stack.node, self.stack.ros, f"{self.stack.ns}/g1_mode_manager"
+        try:
+            call_service(ros.node, GetParameters, f"{name}/get_parameters", GetParameters.Request(names=["dds_domain"]),
+                         timeout_s=5.0, discovery_timeout_s=5.0)
+            fresh = "a fresh client's get_parameters answered"
+        except TimeoutError as e:
+            fresh = f"a fresh client failed too ({e})"
+        return (f"node pid {node.proc.pid} alive={node.alive()}, estop servers in the graph: "
+                f"{ros.node.count_services(f'{name}/estop')}, {fresh}; node output:\n{node.output()[-3000:]}"
+                f"{_stacks(node.proc.pid) if node.alive() else ''}")
 
     def _features(self, claims: Claims) -> list[str]:
         p = self.plan
@@ -209,6 +234,20 @@ def _damp_since(record: SimRecord, t: float) -> bool:
 
 def _damped(status: dict) -> bool:
     return status["sport"]["fsm_id"] == 1 and status["sport"]["mode"] != ""
+
+
+def _stacks(pid: int) -> str:
+    """The node's threads' stacks (py-spy, if installed): where a node that serves nothing is waiting."""
+    import shutil
+    import subprocess
+    import sys
+
+    spy = shutil.which("py-spy") or str(Path(sys.executable).with_name("py-spy"))
+    try:
+        done = subprocess.run([spy, "dump", "--pid", str(pid)], capture_output=True, text=True, timeout=20)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return f"\n(no stacks: {e})"
+    return f"\nnode stacks:\n{done.stdout[-6000:]}{done.stderr[-500:]}"
 
 
 def _call(client: Any, timeout_s: float) -> Any:
