@@ -95,7 +95,7 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
     kills = [t + SUCCESSOR_EARLIEST_S for t, _ in claims.restarts]
     for lo, hi in itertools.pairwise([float("-inf"), *kills, float("inf")]):
         life = [(t, m) for t, m in modes if lo <= t < hi]
-        bad += _judge_streams(events, history, life)
+        bad += _judge_streams(events, history, life, killed_at=hi)
         bad += _judge_faults(events, history, life, killed_at=hi)
     bad += _judge_restarts(events, claims.restarts)
     return bad
@@ -176,9 +176,10 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
     return bad
 
 
-def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[float, Any]]) -> list[str]:
+def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[float, Any]],
+                   killed_at: float = float("inf")) -> list[str]:
     """The stream invariants (arm weight ramps, Move steps, no user frames outside LOW_LEVEL), on what the robot
-    received."""
+    received. A node's life ends at ``killed_at``: the frames after it are its successor's, judged in that life."""
     bad: list[str] = []
     accepting = (4, 500, 501, 801, 802)
 
@@ -205,7 +206,7 @@ def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[
         nxt = [t for t, m in modes if t > t_left and m.mode == 3 and not m.transition_in_progress]
         # the node forwards the user's frames as soon as it is in LOW_LEVEL again, and the first may reach the robot
         # before its ~/mode says so reaches the test: a frame in flight before the claim, as after a change of state
-        until = nxt[0] - GRACE_S if nxt else float("inf")
+        until = nxt[0] - GRACE_S if nxt else killed_at
         late = [e for e in events if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0
                 and t_left + GRACE_S < e["t"] < until]
         if late:

@@ -77,3 +77,20 @@ def test_a_user_frame_that_reaches_the_robot_before_the_low_level_claim_reaches_
 def test_a_user_frame_between_leaving_low_level_and_entering_it_again_is_a_violation() -> None:
     bad = _low_level_again(-2.0)
     assert len(bad) == 1 and bad[0].startswith("user lowcmd frame (kp 40.0) 3.000 s after leaving LOW_LEVEL"), bad
+
+
+def test_a_successors_low_level_frames_are_not_judged_in_the_killed_nodes_life() -> None:
+    # the node leaves LOW_LEVEL at 5 and is SIGKILLed at 8; its successor enters LOW_LEVEL at 12 and streams
+    t_estop = 20.0
+    claims = Claims(t_estop=t_estop)
+    claims.modes = [(1.0, _mode(LOW_LEVEL)), (5.0, _mode(LOW_LEVEL, transition=True)), (5.01, _mode(IDLE)),
+                    (9.5, _mode(0)), (11.9, _mode(IDLE, transition=True)), (12.0, _mode(LOW_LEVEL)),
+                    (t_estop + 0.01, _mode(EMERGENCY, True))]  # fmt: skip
+    claims.restarts = [(8.0, 9.0)]
+    frames = [_lowcmd(12.1 + 0.01 * k) for k in range(10)]
+    events = [_state(0.0, 0), *frames, _damp(t_estop + 0.001, True), _damp(t_estop + 0.002, False), _state(t_estop + 0.003, 1)]
+    assert [why for why in judge(events, claims, END) if "after leaving LOW_LEVEL" in why] == []
+    # a frame in the killed node's own life, after it left LOW_LEVEL, is still flagged
+    events.insert(1, _lowcmd(7.0))
+    bad = [why for why in judge(events, claims, END) if "after leaving LOW_LEVEL" in why]
+    assert len(bad) == 1 and bad[0].startswith("user lowcmd frame (kp 40.0) 2.000 s after leaving LOW_LEVEL"), bad
