@@ -157,6 +157,9 @@ def test_lf_lowstate_at_20_hz_and_bmsstate_in_the_robots_types(sim: Bridge) -> N
     n_lf, n_bms = len(lf), len(bms)
     s0 = sim.status.get()
     assert wait_until(lambda: len(lf) >= n_lf + 12 and len(bms) >= n_bms + 3, 20.0), (len(lf), len(bms))
+    # the rates are counted over at least 2 s of sim time: under load the samples above can be ones published
+    # before s0 and delivered late, and 3 publishes at 5 Hz over a shorter window are too few to judge a rate
+    assert wait_until(lambda: sim.status.get()["sim_time"] - s0["sim_time"] >= 2.0, 30.0, 0.2)
     s1 = sim.status.get()
     frames = lf[n_lf:]
     ticks = [m.tick for m in frames]
