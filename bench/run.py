@@ -16,6 +16,7 @@ import argparse
 import json
 import os
 import platform
+import signal
 import statistics
 import subprocess
 import sys
@@ -449,6 +450,30 @@ def raw_stream(topic: str, rate_hz: float, seconds: float) -> dict:
     return json.loads(out.read_text())
 
 
+def relay_floor(bench: Bench, write: bool, seconds: float) -> float:
+    """CPU of bench/relay_floor.py (what rclpy, Fast DDS and Cyclone alone cost a ~/lowcmd relay) while a
+    JointCommand is published to it at 500 Hz, measured as the node's is."""
+    topic = "/relay_floor/lowcmd"
+    proc = subprocess.Popen([sys.executable, "-m", "bench.relay_floor", "--domain", str(SDK_DOMAIN), "--topic", topic,
+                             *(["--write"] if write else [])], cwd=REPO, stdout=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        if proc.stdout is None or proc.stdout.readline().strip() != "ready":
+            raise RuntimeError("relay_floor did not start")
+        from g1_mode_manager_msgs.msg import JointCommand
+
+        pub = bench.publisher(JointCommand, topic, 1 + write)  # a publisher per floor process: no stale match
+        time.sleep(0.5)
+        message = _lowcmd_message(0)
+        return cpu_percent(proc.pid, seconds, paced(lambda: pub.publish(message), 500))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(10.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
 def stream_timing(sim: Sim, sends: list[tuple[float, float]], topic: str, period_s: float) -> tuple[Stats, Stats]:
     """(send -> received at the robot, |inter-arrival gap - period| at the robot) of a marked stream: each frame's
     marker (motor 0's kp) is its ``kp_max`` on the sim's record (``topic`` as the record names it: "lowcmd")."""
@@ -536,6 +561,10 @@ def cpu_rows(bench: Bench, sim: Sim, seconds: float) -> tuple[list[tuple[str, st
     finally:
         stop_node(bench, node)
     raw = raw_stream("rt/lowcmd", 500.0, seconds)  # the robot stays released: rt/lowcmd frames count
+    for write, key, name in ((False, "floor_take_500hz_pct", "take only"),
+                             (True, "floor_relay_500hz_pct", "take + one constant rt/lowcmd write")):
+        summary[key] = cpu(f"  floor, a bare rclpy relay at 500 Hz ({name}; its own process)",
+                           relay_floor(bench, write, seconds))
     summary["raw_lowcmd_500hz_pct"] = cpu("  raw SDK publisher CPU, rt/lowcmd at 500 Hz (its own process)",
                                           raw["cpu_pct"])
     raw_latency, raw_jitter = stream_timing(sim, [tuple(p) for p in raw["sends"]], "lowcmd", 0.002)
@@ -668,7 +697,7 @@ def main(argv: list[str] | None = None) -> int:
     keys = ("estop_damp_p99_ms", "raw_rpc_p99_ms", "cmd_vel_median_ms", "cmd_vel_p99_ms", "raw_move_median_ms",
             "raw_move_p99_ms", "cpu_idle_pct", "cpu_100hz_pct", "lowcmd_500hz_pct", "raw_lowcmd_500hz_pct",
             "lowcmd_p99_ms", "raw_lowcmd_p99_ms", "arm_50hz_pct", "raw_arm_50hz_pct", "lowlevel_idle_pct",
-            "lowcmd_jitter_p99_ms", "raw_lowcmd_jitter_p99_ms")
+            "lowcmd_jitter_p99_ms", "raw_lowcmd_jitter_p99_ms", "floor_take_500hz_pct", "floor_relay_500hz_pct")
     print("SUMMARY " + " ".join(f"{k}={summary[k]:.2f}" for k in keys))
     return 0
 
