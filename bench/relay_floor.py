@@ -42,7 +42,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.write:
         writer = FrameWriter(topics.LOWCMD)
         frame = LowCmdFrame()
-        frame.set_header(0, 5)  # a damping frame: kp 0 on every motor
+        # every motor disabled (mode 0, zero gains): nothing changes on a released robot, and the write
+        # costs what any frame's does (same size, same path)
+        frame.set_header(0, 5)
         data = writer.serialize(frame)
 
         def on_message(_raw: bytes) -> None:
