@@ -43,18 +43,18 @@ class Listener:
         self.odom: list[tuple[float, Odometry]] = []
         self.tf: list = []
         self.diagnostics: list[DiagnosticArray] = []
-        self._lock = threading.Lock()
+        self.lock = threading.Lock()
         node = stack.ros.node
         node.create_subscription(Odometry, "/odom", lambda m: self._add(self.odom, (time.monotonic(), m)), 50)
         node.create_subscription(tf2_msgs.TFMessage, "/tf", lambda m: self._add(self.tf, m), 100)
         node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: self._add(self.diagnostics, m), 10)
 
     def _add(self, into: list, item) -> None:
-        with self._lock:
+        with self.lock:
             into.append(item)
 
     def status(self, name: str) -> str | None:
-        with self._lock:
+        with self.lock:
             for array in reversed(self.diagnostics):
                 for s in array.status:
                     if s.name == f"g1_mode_manager: {name}":
@@ -106,9 +106,14 @@ def test_odom_and_tf_follow_the_robots_estimate_over_a_walk_and_a_turn(stack, he
     _, last = heard.odom[-1]
     assert (last.header.frame_id, last.child_frame_id) == ("odom", "pelvis")
 
-    # the TF sent with that odom message (same stamp) carries the same pose: the one matched above
-    same = [m.transforms[0] for m in heard.tf if m.transforms[0].header.stamp == last.header.stamp]
-    assert same, "no TF with the last odom message"
+    # the TF sent with that odom message (same stamp) carries the same pose: the one matched above. The node
+    # publishes the TF just after the odom message, so it may still be on its way when the odom has arrived.
+    def same_stamp() -> list:
+        with heard.lock:
+            return [m.transforms[0] for m in heard.tf if m.transforms[0].header.stamp == last.header.stamp]
+
+    assert wait_until(same_stamp, 5.0), "no TF with the last odom message within 5 s"
+    same = same_stamp()
     t = same[-1]
     assert (t.header.frame_id, t.child_frame_id) == ("odom", "pelvis")
     pos = last.pose.pose.position
