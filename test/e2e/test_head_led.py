@@ -19,10 +19,17 @@ def _changes_since(stack, t0: float) -> list[tuple[int, int, int]]:
     return [tuple(c["rgb"]) for c in stack.sim.get()["voice"]["led_changes"] if c["t"] >= t0]
 
 
-def _after_change() -> float:
-    """A moment after the mode changed by which the LED worker (10 Hz) has seen the new mode."""
-    time.sleep(0.2)
-    return time.monotonic()
+def _first_of_new_mode(stack, since: float, looks_new) -> float:
+    """The robot's receive time of the first colour of the new mode. One worker sends the colours in order, so
+    nothing of the old mode reaches the robot after it, however late a loaded machine delivers."""
+    found: list[float] = []
+
+    def landed() -> bool:
+        found[:] = [c["t"] for c in stack.sim.get()["voice"]["led_changes"] if c["t"] >= since and looks_new(c["rgb"])]
+        return bool(found)
+
+    assert wait_until(landed, 10.0), stack.sim.get()["voice"]
+    return found[0]
 
 
 def _collect(stack, t0: float, seconds: float) -> set[tuple[int, int, int]]:
@@ -30,34 +37,47 @@ def _collect(stack, t0: float, seconds: float) -> set[tuple[int, int, int]]:
     return set(_changes_since(stack, t0))
 
 
+def _green(rgb) -> bool:
+    r, g, b = rgb
+    return r == 0 and b == 0 and g > 0
+
+
+def _amber(rgb) -> bool:
+    r, g, b = rgb
+    return b == 0 and r > g > 0 and abs(g / r - 120 / 255) < 0.05
+
+
 def test_each_mode_shows_its_colour_and_pattern_on_the_robot(stack_factory) -> None:
     stack = stack_factory(node_params=("announce_modes:=true",), bridge_args=("--gantry",))  # LOW_LEVEL: hung
     assert stack.sim.get()["voice"]["led"] == list(OFF)  # nothing sent before the robot is connected
 
+    since = time.monotonic()
     assert stack.set_mode("idle").success
-    t0 = _after_change()
-    assert wait_until(lambda: tuple(stack.sim.get()["voice"]["led"]) == IDLE_BLUE, 5.0), stack.sim.get()["voice"]
+    t0 = _first_of_new_mode(stack, since, lambda rgb: tuple(rgb) == IDLE_BLUE)
     seen = _collect(stack, t0, 1.0)
     assert seen <= {IDLE_BLUE}, seen  # solid: one colour, no flicker
 
+    since = time.monotonic()
     assert stack.set_mode("high_level").success
-    t0 = _after_change()
+    t0 = _first_of_new_mode(stack, since, _green)
     seen = _collect(stack, t0, 2.5)  # HIGH_LEVEL: green pulse, period 2 s
     assert len(seen) >= 3, seen
-    assert all(r == 0 and b == 0 and g > 0 for r, g, b in seen), seen
+    assert all(_green(c) for c in seen), seen
 
+    since = time.monotonic()
     assert stack.set_mode("low_level").success
-    t0 = _after_change()
+    t0 = _first_of_new_mode(stack, since, _amber)
     seen = _collect(stack, t0, 1.5)  # LOW_LEVEL: amber pulse, period 1 s
     assert len(seen) >= 3, seen
-    assert all(b == 0 and r > g > 0 and abs(g / r - 120 / 255) < 0.05 for r, g, b in seen), seen
+    assert all(_amber(c) for c in seen), seen
 
+    since = time.monotonic()
     assert stack.estop().success
-    t0 = _after_change()
-    seen = _collect(stack, t0, 1.5)  # EMERGENCY: red flash, 200 ms period: both halves reach the robot
+    t0 = _first_of_new_mode(stack, since, lambda rgb: tuple(rgb) == EMERGENCY_RED)
+    # EMERGENCY: red flash, 200 ms period: both halves reach the robot, about 10 changes a second, not one
+    assert wait_until(lambda: len(_changes_since(stack, t0)) >= 8, 5.0), _changes_since(stack, t0)
+    seen = set(_changes_since(stack, t0))
     assert seen == {EMERGENCY_RED, OFF}, seen
-    flips = _changes_since(stack, t0)
-    assert len(flips) >= 8, flips  # ~10 changes a second, not one
 
-    said = stack.sim.get()["voice"]["tts"]
-    assert said[-4:] == ["idle", "high level control", "low level control", "emergency stop"], said
+    expected = ["idle", "high level control", "low level control", "emergency stop"]
+    assert wait_until(lambda: stack.sim.get()["voice"]["tts"][-4:] == expected, 5.0), stack.sim.get()["voice"]["tts"]
