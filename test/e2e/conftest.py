@@ -70,6 +70,22 @@ class Stack:
             pub.publish(msg)
             time.sleep(1.0 / rate_hz)
 
+    def drive_sim_time(self, vx: float, sim_seconds: float, *, wz: float = 0.0, rate_hz: float = 20.0) -> None:
+        """As ``drive``, for ``sim_seconds`` of the sim's time: a loaded machine runs the sim below real time, and
+        a walk's length follows the robot's time, not the test's."""
+        pub = self.cmd_vel_publisher()
+        msg = Twist()
+        msg.linear.x, msg.angular.z = vx, wz
+        end = self.sim.get()["sim_time"] + sim_seconds
+        next_look = 0.0
+        while True:
+            if time.monotonic() >= next_look:
+                if self.sim.get()["sim_time"] >= end:
+                    return
+                next_look = time.monotonic() + 0.2
+            pub.publish(msg)
+            time.sleep(1.0 / rate_hz)
+
     def cmd_vel_publisher(self):
         if not hasattr(self, "_cmd_vel"):
             self._cmd_vel = self.ros.node.create_publisher(Twist, f"{self.ns}/cmd_vel", 10)
