@@ -48,6 +48,13 @@ class Stack:
 
         return self.ros.call(Trigger, self.name("estop"), Trigger.Request(), timeout_s)
 
+    def match_estop(self, timeout_s: float = 15.0) -> None:
+        """Make the e-stop client and wait for its server now, so a test that times an e-stop does not time
+        this client's discovery (long on a loaded machine) as the node's latency."""
+        from std_srvs.srv import Trigger
+
+        assert self.ros.client(Trigger, self.name("estop")).wait_for_service(timeout_sec=timeout_s), "no ~/estop server"
+
     def position(self) -> tuple[float, float, float]:
         return tuple(self.sim.get()["base"]["position"])
 
@@ -157,7 +164,9 @@ class _Stacks:
         ros.wait_node_answers()
         sim = shared_sim_status()  # SDK clients must live for the whole process (see support.sim_bridge)
         sim.wait_ready(15.0)
-        return Stack(bridge, node, ros, sim, SimRecord(record))
+        stack = Stack(bridge, node, ros, sim, SimRecord(record))
+        stack.match_estop()
+        return stack
 
     def stop(self) -> None:
         for ros in self._clients:
@@ -218,6 +227,7 @@ def shared_stack_factory(_shared_bridge: _SharedBridge) -> Iterator:
         clients.append(ros)
         ros.wait_node_answers()
         stack = Stack(bridge, node, ros, sim, record, baseline=baseline)
+        stack.match_estop()
         stack.set_faults(faults or {})  # the reset cleared the robot's; the parameter must say so too
         stack.set_gantry("--gantry" in bridge_args)
         return stack

@@ -36,10 +36,15 @@ def _assert_damped_from(stack, t_answer: float) -> list[dict]:
     return events
 
 
-def _estop_in(stack, pool: ThreadPoolExecutor, action, delay_s: float):
-    """Start ``action`` in the pool, fire the e-stop ``delay_s`` later; (e-stop reply, time answered)."""
+def _estop_in(stack, pool: ThreadPoolExecutor, action, slow_api: int, delay_s: float):
+    """Start ``action`` in the pool, fire the e-stop ``delay_s`` after the robot received the slow call
+    ``slow_api`` (so the e-stop lands while it is in flight, however long the transition took to send it);
+    (e-stop reply, time requested, time answered)."""
+    since = time.monotonic()
     pending = pool.submit(action)
-    time.sleep(delay_s)
+    sent = lambda: requests(stack.record.events(since=since), slow_api)  # noqa: E731
+    assert wait_until(lambda: bool(sent()), 15.0), f"the transition never sent API {slow_api} to the robot"
+    time.sleep(max(0.0, sent()[0]["t"] + delay_s - time.monotonic()))
     t_request = time.monotonic()
     reply = stack.estop(timeout_s=30.0)
     t_answer = time.monotonic()
@@ -52,7 +57,8 @@ def test_estop_during_a_slow_release_mode_ends_damped_on_the_robot(shared_stack_
     stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_RELEASE_MODE): 2.0}})
     assert stack.set_mode("high_level").success
     with ThreadPoolExecutor(1) as pool:
-        reply, t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"), 1.0)
+        reply, t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"),
+                                                 api_ids.MS_RELEASE_MODE, 1.0)
     assert reply.success, reply.message
     events = _assert_damped_from(stack, t_answer)
     # the race really happened: the ReleaseMode landed after the e-stop's first Damp, and was overridden
@@ -71,7 +77,8 @@ def test_estop_during_a_slow_select_mode_ends_damped_on_the_robot(shared_stack_f
     stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 2.0}})
     assert stack.set_mode("low_level").success
     with ThreadPoolExecutor(1) as pool:
-        reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("high_level"), 1.0)
+        reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("high_level"),
+                                                  api_ids.MS_SELECT_MODE, 1.0)
     assert reply.success, reply.message
     _assert_damped_from(stack, t_answer)
 
@@ -80,7 +87,8 @@ def test_estop_during_a_slow_check_mode_ends_damped_on_the_robot(shared_stack_fa
     stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_CHECK_MODE): 1.0}})
     assert stack.set_mode("high_level").success
     with ThreadPoolExecutor(1) as pool:
-        reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"), 0.5)
+        reply, _t_request, t_answer = _estop_in(stack, pool, lambda: stack.set_mode("low_level"),
+                                                  api_ids.MS_CHECK_MODE, 0.5)
     assert reply.success, reply.message
     _assert_damped_from(stack, t_answer)
 
@@ -115,7 +123,7 @@ def test_another_program_undamping_the_robot_is_overridden_within_1_s(shared_sta
     other = _other_program()
     other.wait_ready(10.0)
     t_other = time.monotonic()
-    other.set_fsm_id(4)  # another program stands the robot up after the e-stop
+    other.set_fsm_id(4, timeout_s=5.0)  # another program stands the robot up after the e-stop
     assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 1 and time.monotonic() - t_other > 0.05, 3.0)
     events = stack.record.events()
     left = next(s for s in states(events) if s["t"] > t_other and s["fsm"] != 1)
@@ -131,8 +139,14 @@ def test_no_move_reaches_the_robot_after_the_estop(shared_stack_factory) -> None
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
     with ThreadPoolExecutor(1) as pool:
-        driving = pool.submit(stack.drive, 0.4, 3.0, rate_hz=100.0)
-        time.sleep(1.5)
+        driving = pool.submit(stack.drive, 0.4, 4.0, rate_hz=100.0)
+        since = time.monotonic()
+
+        def walking() -> bool:  # the e-stop goes out while Moves are reaching the robot (a loaded machine may lag)
+            moves = [e for e in requests(stack.record.events(since=since), api_ids.LOCO_SET_VELOCITY) if any(velocity_of(e))]
+            return len(moves) >= 10 and time.monotonic() - moves[-1]["t"] < 0.1
+
+        assert wait_until(walking, 3.0), "no stream of Moves reached the robot"
         t_request = time.monotonic()
         assert stack.estop().success
         driving.result(10.0)
