@@ -3,7 +3,9 @@
 At 500 Hz rclpy's conversion into a JointCommand (29 Python strings, five arrays) and back into lists costs
 more than everything else the relay does. Here the bytes are read with ``struct``: a controller sends the
 same joint names in every message, so the names' bytes are compared with the last message's (one
-``startswith``, no decoding) and their tuple reused; the five float64 sequences are unpacked as tuples.
+``unpack_from`` of their lengths and characters, no decoding) and their tuple reused; the five float64
+sequences are unpacked as tuples. The alignment padding between the names is skipped, not compared: the
+serialiser does not clear it, so it holds whatever its buffer held before.
 Only plain little-endian CDR (what Fast DDS writes for ROS messages) is read this way; anything else,
 or bytes that do not parse, goes through rclpy's own deserialisation.
 """
@@ -35,7 +37,8 @@ class JointCommandReader:
     """Reads JointCommand bytes; remembers the last names. One per subscription (not thread-safe)."""
 
     def __init__(self) -> None:
-        self._names_bytes = b""
+        self._layout: struct.Struct | None = None  # the last names' count, lengths and characters, padding skipped
+        self._layout_values: tuple = ()
         self._names: tuple[str, ...] = ()
 
     def fields(self, data: bytes) -> Fields:
@@ -49,13 +52,20 @@ class JointCommandReader:
         return (tuple(msg.name), tuple(msg.q), tuple(msg.dq), tuple(msg.tau), tuple(msg.kp),
                 tuple(msg.kd))  # fmt: skip
 
+    def _same_names(self, data: bytes) -> bool:
+        layout = self._layout
+        if layout is None or len(data) < _NAMES_AT + layout.size:
+            return False
+        return layout.unpack_from(data, _NAMES_AT) == self._layout_values
+
     def _read(self, data: bytes) -> Fields:
-        cached = self._names_bytes
-        if cached and data.startswith(cached, _NAMES_AT):
-            names, at = self._names, _NAMES_AT + len(cached)
+        if self._same_names(data):
+            assert self._layout is not None
+            names, at = self._names, _NAMES_AT + self._layout.size
         else:
             names, at = _read_names(data)
-            self._names_bytes, self._names = data[_NAMES_AT:at], names
+            self._layout, self._layout_values = _names_layout(data, at)
+            self._names = names
         columns = []
         for _ in range(5):
             at += -(at - 4) % 4  # CDR aligns relative to the payload, after the 4-byte header
@@ -71,6 +81,22 @@ class JointCommandReader:
                 columns.append(())
         q, dq, tau, kp, kd = columns
         return names, q, dq, tau, kp, kd
+
+
+def _names_layout(data: bytes, end: int) -> tuple[struct.Struct, tuple]:
+    """A struct that reads the names' count, then each name's length and bytes, skipping the padding before
+    each length; and what it reads from ``data`` (whose names end at ``end``)."""
+    (count,) = _U32.unpack_from(data, _NAMES_AT)
+    parts, at = ["<I"], _NAMES_AT + 4
+    for _ in range(count):
+        pad = -(at - 4) % 4
+        (size,) = _U32.unpack_from(data, at + pad)
+        parts.append(f"{pad}xI{size}s" if pad else f"I{size}s")
+        at += pad + 4 + size
+    layout = struct.Struct("".join(parts))
+    if _NAMES_AT + layout.size != end:
+        raise ValueError("the names' layout does not match their bytes")
+    return layout, layout.unpack_from(data, _NAMES_AT)
 
 
 def _read_names(data: bytes) -> tuple[tuple[str, ...], int]:

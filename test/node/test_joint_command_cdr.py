@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import struct
 
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")  # the product's serialiser (one_dds_stack.py)
 
@@ -46,6 +47,31 @@ def test_the_names_are_reused_only_while_they_are_the_same() -> None:
     assert longer[0] == (*JOINT_NAMES, "x")
     shorter = reader.fields(serialize_message(_message(list(JOINT_NAMES[:2]), [0.3, 0.4], [], [], [1.0] * 2, [2.0] * 2)))
     assert shorter[0] == tuple(JOINT_NAMES[:2]) and shorter[1] == (0.3, 0.4)
+
+
+def _with_padding(data: bytes, fill: int) -> bytes:
+    """``data`` with the alignment padding between its names set to ``fill`` (a serialiser leaves it as it was)."""
+    out = bytearray(data)
+    (count,) = struct.unpack_from("<I", out, 12)
+    at = 16
+    for _ in range(count):
+        while (at - 4) % 4:
+            out[at] = fill
+            at += 1
+        (size,) = struct.unpack_from("<I", out, at)
+        at += 4 + size
+    return bytes(out)
+
+
+def test_the_names_are_reused_whatever_the_padding_between_them_holds() -> None:
+    data = serialize_message(_message(list(JOINT_NAMES), [0.1] * 29, [], [], [1.0] * 29, [2.0] * 29))
+    assert data[:2] == b"\x00\x01"
+    reader = JointCommandReader()
+    first = reader.fields(_with_padding(data, 0x00))
+    again = reader.fields(_with_padding(data, 0xA5))
+    assert _with_padding(data, 0x00) != _with_padding(data, 0xA5), "the names have no padding: nothing was tested"
+    assert again == first == reader.fields(data) == JointCommandReader().fields(_with_padding(data, 0xA5))
+    assert again[0] is first[0]
 
 
 def test_bytes_cut_short_are_an_error_never_a_command() -> None:
