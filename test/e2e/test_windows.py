@@ -102,12 +102,16 @@ def test_an_estop_from_low_level_damps_the_moment_the_service_answers(shared_sta
 
 #: The e-stop's own budget in this test (estop_timeout_s) and its call timeout (estop_call_timeout_s).
 ESTOP_TOTAL_S, ESTOP_CALL_S = 2.0, 0.5
-#: The transitions' SelectMode timeout in that test: longer than the e-stop's budget, shorter than the default.
-SELECT_S = 4.0
+#: The transitions' SelectMode timeout in that test: longer than the e-stop's budget with the slack below, so an
+#: e-stop that waited for the transition's SelectMode would answer late; shorter than the default.
+SELECT_S = 6.0
+#: The service round trip on top of the node's own budget: the request's and the reply's delivery, which a
+#: loaded two-core machine stretched to 0.74 s once.
+ROUND_TRIP_S = 1.0
 
 
 def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(shared_stack_factory) -> None:
-    """A SelectMode that never returns (held 30 s; the transition waits select_timeout_s 4 s for it, the e-stop's
+    """A SelectMode that never returns (held 30 s; the transition waits select_timeout_s 6 s for it, the e-stop's
     own SelectMode 5 s): the e-stop answers by estop_timeout_s + one call timeout, and says it is incomplete,
     never damped. The pre-empted mode change is answered too, once its SelectMode gave up."""
     stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 30.0}}, bridge_args=("--gantry",),
@@ -122,7 +126,7 @@ def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(sh
     answered = time.monotonic() - t0
     print(f"e-stop with a SelectMode that never returns: answered after {answered:.2f} s "
           f"(budget {ESTOP_TOTAL_S} s + one call {ESTOP_CALL_S} s): {reply.message}")
-    assert answered <= ESTOP_TOTAL_S + ESTOP_CALL_S + 0.3, f"answered after {answered:.2f} s"
+    assert answered <= ESTOP_TOTAL_S + ESTOP_CALL_S + ROUND_TRIP_S, f"answered after {answered:.2f} s"
     assert not reply.success and "e-stop incomplete" in reply.message, reply.message
     # never claims more than is true: the robot was not damping when it answered
     assert not any(s["fsm"] == 1 and s["svc"] for s in states(stack.record.events(t0))), "damped after all?"
