@@ -16,6 +16,7 @@ import time
 import pytest
 from g1_mode_manager_msgs.msg import JointCommand
 from g1_mode_manager_msgs.msg import Mode as ModeMsg
+from sensor_msgs.msg import JointState
 
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.motors import JOINT_NAMES
@@ -77,6 +78,15 @@ def _low_level_with_controller(stack, controller: Controller, command: JointComm
     assert wait_until(lambda: len(_user_frames(stack, t)) > 50, 5.0), \
         ("the controller's frames never reached the robot", [(m.name, list(m.faults)) for m in stack.modes()[-2:]])
     return time.monotonic()
+
+
+def _joint_position(stack, name: str) -> float:
+    """The joint's position in the sim's next /joint_states message."""
+    got: list[JointState] = []
+    # kept, not destroyed: destroying an entity while the client's executor waits on it kills that executor
+    stack.ros.node.create_subscription(JointState, "/joint_states", got.append, 10)
+    assert wait_until(lambda: bool(got), 10.0), "no /joint_states from the sim"
+    return float(got[-1].position[list(got[-1].name).index(name)])
 
 
 def _user_frames(stack, since: float) -> list[dict]:
@@ -214,8 +224,10 @@ def test_low_level_checks_damp_a_streaming_controller_within_50_ms(shared_stack_
         _clear_to_idle(stack)
 
         # the gantry lets go: the robot, held stiff by its controller, topples over (the wrist held where the
-        # last phase left it: snapped back at once, it would spin past the limit again)
-        t0 = _low_level_with_controller(stack, controller, _stand_command(left_wrist_roll_joint=(1.5, ARMS_KP)))
+        # last phase's damping left it, which depends on how far it had spun: stepped away from there, it would
+        # spin past the limit again)
+        wrist = _joint_position(stack, "left_wrist_roll_joint")
+        t0 = _low_level_with_controller(stack, controller, _stand_command(left_wrist_roll_joint=(wrist, ARMS_KP)))
         stack.set_gantry(False)
         assert wait_until(lambda: any(m.mode == ModeMsg.FAULT for m in stack.modes()), 10.0)
         t_fall = min(_first_body(stack, t0, "tilt", 1.0), _first_body(stack, t0, "gyro", 6.0))
