@@ -57,7 +57,8 @@ from g1_mode_manager.protocol.idl import IMUState_
 from g1_mode_manager.protocol.odom_fields import OdomModeState_, decode_odom
 from g1_mode_manager.protocol.unitree_sdk_internals import channel_datareader, subscriber_channel
 counts, stamp, keep = {}, [0.0], []
-qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(256))
+# five seconds at 1 kHz: a counter starved of the CPU for a while still counts every sample
+qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(5000))
 for topic, idl in ((topics.SECONDARY_IMU, IMUState_), (topics.ODOMMODESTATE, OdomModeState_),
                    (topics.LF_ODOMMODESTATE, OdomModeState_)):
     sub = ChannelSubscriber(topic, idl)
