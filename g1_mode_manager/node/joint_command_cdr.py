@@ -63,9 +63,8 @@ class JointCommandReader:
             assert self._layout is not None
             names, at = self._names, _NAMES_AT + self._layout.size
         else:
-            names, at = _read_names(data)
-            self._layout, self._layout_values = _names_layout(data, at)
-            self._names = names
+            names, at, layout = _read_names(data)
+            self._layout, self._layout_values, self._names = layout, layout.unpack_from(data, _NAMES_AT), names
         columns = []
         for _ in range(5):
             at += -(at - 4) % 4  # CDR aligns relative to the payload, after the 4-byte header
@@ -83,35 +82,22 @@ class JointCommandReader:
         return names, q, dq, tau, kp, kd
 
 
-def _names_layout(data: bytes, end: int) -> tuple[struct.Struct, tuple]:
-    """A struct that reads the names' count, then each name's length and bytes, skipping the padding before
-    each length; and what it reads from ``data`` (whose names end at ``end``)."""
-    (count,) = _U32.unpack_from(data, _NAMES_AT)
-    parts, at = ["<I"], _NAMES_AT + 4
-    for _ in range(count):
-        pad = -(at - 4) % 4
-        (size,) = _U32.unpack_from(data, at + pad)
-        parts.append(f"{pad}xI{size}s" if pad else f"I{size}s")
-        at += pad + 4 + size
-    layout = struct.Struct("".join(parts))
-    if _NAMES_AT + layout.size != end:
-        raise ValueError("the names' layout does not match their bytes")
-    return layout, layout.unpack_from(data, _NAMES_AT)
-
-
-def _read_names(data: bytes) -> tuple[tuple[str, ...], int]:
-    """The names and the offset just after them."""
+def _read_names(data: bytes) -> tuple[tuple[str, ...], int, struct.Struct]:
+    """The names, the offset just after them, and a struct that reads their count, then each name's length
+    and bytes, skipping the padding before each length."""
     (count,) = _U32.unpack_from(data, _NAMES_AT)
     if count > len(data):
         raise ValueError("name count runs past the message")
     at = _NAMES_AT + 4
-    names = []
+    names, parts = [], ["<I"]
     for _ in range(count):
-        at += -(at - 4) % 4
+        pad = -(at - 4) % 4
+        at += pad
         (size,) = _U32.unpack_from(data, at)  # with its NUL
         at += 4
         if size == 0 or at + size > len(data):
             raise ValueError("string runs past the message")
         names.append(data[at : at + size - 1].decode())
+        parts.append(f"{pad}xI{size}s" if pad else f"I{size}s")
         at += size
-    return tuple(names), at
+    return tuple(names), at, struct.Struct("".join(parts))
