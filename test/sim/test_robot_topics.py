@@ -15,7 +15,7 @@ import json
 import math
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,6 +31,7 @@ from g1_mode_manager.protocol.idl import IMUState_, LowState_
 from g1_mode_manager.protocol.odom_fields import OdomModeState_
 from support.collected import Collected
 from support.cyclone010 import STOCK_CLIENT, json_lines
+from support.lossy_rpc import Result, call_robot
 from support.mode_manager import RosClient, wait_until
 from support.processes import ManagedProcess
 from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
@@ -39,6 +40,8 @@ from support.sim_record import Event, SimRecord, of_kind, requests, states
 pytestmark = pytest.mark.sim
 
 SPEED = 2.0
+#: The SDK clients' timeout.
+RPC_TIMEOUT_S = 3.0
 LEFT_SHOULDER_PITCH = 15
 
 #: Counts every sample of the given topics and the newest rt/odommodestate stamp, printed every 0.1 s.
@@ -99,7 +102,7 @@ def _session_clients() -> Clients:
     loco.Init()
     switcher.Init()
     for client in (loco, switcher):
-        client.SetTimeout(3.0)
+        client.SetTimeout(RPC_TIMEOUT_S)
     lowstate, imu = ChannelSubscriber(topics.LOWSTATE, LowState_), ChannelSubscriber(topics.SECONDARY_IMU, IMUState_)
     lowstate.Init()
     imu.Init()
@@ -127,6 +130,10 @@ class Bridge:
                           SetParameters.Request(parameters=[Parameter(name="faults", value=value)]))  # fmt: skip
         assert all(x.successful for x in r.results), [x.reason for x in r.results]
         return t
+
+    def call(self, call: Callable[[], Result], api_id: int) -> Result:
+        """An SDK call whose request or reply, if lost in transport, is made again (support/lossy_rpc.py)."""
+        return call_robot(call, self.record, api_id, timeout_s=RPC_TIMEOUT_S)
 
     def counts(self, after: float) -> dict[str, Any]:
         """The counter's first line printed after the monotonic time ``after``."""
@@ -192,7 +199,7 @@ def test_torso_imu_and_odometry_at_their_rates_odometry_only_while_a_service_is_
     assert active[topics.ODOMMODESTATE] == pytest.approx(500.0, rel=0.03)
     assert active[topics.LF_ODOMMODESTATE] == pytest.approx(20.0, rel=0.1)
 
-    assert sim.io.switcher.ReleaseMode() == (0, None)  # debug mode: the estimate is no longer published
+    assert sim.call(sim.io.switcher.ReleaseMode, api.MS_RELEASE_MODE) == (0, None)  # debug mode: no estimate
     t_released = sim.status.get()["sim_time"]
     sim.status.wait_sim_time(t_released + 0.2)
     before = sim.counts(time.monotonic())
@@ -227,7 +234,7 @@ def test_the_torso_imu_and_the_motors_report_like_the_robots(sim: Bridge) -> Non
 
 def test_the_estimate_drifts_by_its_configured_scale_and_is_the_truth_without_errors(sim: Bridge) -> None:
     loco = sim.io.loco
-    assert loco.SetFsmId(500) == 0
+    assert sim.call(lambda: loco.SetFsmId(500), api.LOCO_SET_FSM_ID) == 0
     for faults, scale in (({"odom_drift": {"xy_per_m": 0.05, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}, 1.05),
                           ({"odom_drift": {"xy_per_m": 0, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}, 1.0)):  # fmt: skip
         sim.set_faults(faults)  # a fresh estimate, from the truth
@@ -259,7 +266,7 @@ def test_the_estimate_drifts_by_its_configured_scale_and_is_the_truth_without_er
 
 def test_the_default_estimate_is_not_the_truth(sim: Bridge) -> None:
     t0 = time.monotonic()
-    sim.io.loco.SetFsmId(500)
+    assert sim.call(lambda: sim.io.loco.SetFsmId(500), api.LOCO_SET_FSM_ID) == 0
     sim.io.loco.Move(0.6, 0.0, 0.0, True)
     sim.run_for(3.0)
     last = sim.odom(t0)[-1]
