@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from g1_mode_manager.protocol import api_ids as api
-from support.sim_record import SimRecord
+from support.sim_record import SimRecord, requests
 
 #: The robot handles a request within this of receiving it, or it is slow (the sim's handlers take
 #: milliseconds; the bound leaves room for a loaded machine, and stays far below the clients' timeouts).
@@ -52,17 +52,16 @@ def _lost_in_transport(record: SimRecord, api_id: int, t0: float, timeout_s: flo
     """Why a call from ``t0`` came back 3104 although the robot was not at fault, or AssertionError."""
     deadline = time.monotonic() + RECORD_SETTLE_S
     while True:
-        events = [e for e in record.events(t0) if e.get("api") == api_id]
-        received = next((e for e in events if e["k"] == "req"), None)
-        done = next((e for e in events if e["k"] == "done"), None)
-        if received is None and time.monotonic() >= deadline:
-            return "the robot never received the request (lost in transport)"
-        if received is not None and done is not None:
-            took = done["t"] - received["t"]
-            assert took <= HANDLED_WITHIN_S and done["t"] <= t0 + timeout_s, (
-                f"the robot received the request {received['t'] - t0:.3f} s after the call and answered "
+        events = record.events(t0)
+        received, done = requests(events, api_id)[:1], requests(events, api_id, "done")[:1]
+        if received and done:
+            took = done[0]["t"] - received[0]["t"]
+            assert took <= HANDLED_WITHIN_S and done[0]["t"] <= t0 + timeout_s, (
+                f"the robot received the request {received[0]['t'] - t0:.3f} s after the call and answered "
                 f"{took:.3f} s later: slow, not lost")  # fmt: skip
             return f"the robot answered it in {took * 1e3:.0f} ms (the reply was lost in transport)"
-        assert time.monotonic() < deadline, (
-            f"the robot received the request {received['t'] - t0:.3f} s after the call and did not answer it")  # type: ignore[index]
+        if time.monotonic() >= deadline:
+            assert not received, (
+                f"the robot received the request {received[0]['t'] - t0:.3f} s after the call and did not answer it")
+            return "the robot never received the request (lost in transport)"
         time.sleep(0.05)
