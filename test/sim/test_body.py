@@ -294,8 +294,9 @@ def test_a_lost_call_is_made_again_but_a_robot_that_drops_or_delays_its_answer_f
         made.append(time.monotonic())
         return api.ERR_CLIENT_API_TIMEOUT if len(made) == 1 else loco.SetFsmId(1)
 
-    assert sim.call(first_lost, api.LOCO_SET_FSM_ID) == 0 and len(made) == 2
-    assert len(requests(sim.record.events(made[0]), api.LOCO_SET_FSM_ID)) == 1  # the robot got the one Damp sent
+    assert sim.call(first_lost, api.LOCO_SET_FSM_ID) == 0 and len(made) >= 2  # more if a real datagram was lost too
+    damps = requests(sim.record.events(made[0]), api.LOCO_SET_FSM_ID)
+    assert 1 <= len(damps) <= len(made) - 1 and damps[0]["t"] >= made[1]  # the first call never reached the robot
     try:
         sim.set(faults={"drop": [api.LOCO_SET_FSM_ID]})
         with pytest.raises(AssertionError, match="did not answer"):
