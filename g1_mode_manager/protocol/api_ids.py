@@ -24,8 +24,8 @@ LOCO_SET_STAND_HEIGHT: Final = 7104  # {"data": metres}
 LOCO_SET_VELOCITY: Final = 7105  # {"velocity": [vx m/s, vy m/s, wz rad/s], "duration": s}
 LOCO_SET_ARM_TASK: Final = 7106  # {"data": task}: ARM_TASK_*
 LOCO_SET_SPEED_MODE: Final = 7107  # {"data": 0..3}
-LOCO_SWITCH_TO_USER_CTRL: Final = 7110
-LOCO_SWITCH_TO_INTERNAL_CTRL: Final = 7111
+LOCO_SWITCH_TO_USER_CTRL: Final = 7110  # {"data": false}; joints then follow rt/user_lowcmd (newer firmware)
+LOCO_SWITCH_TO_INTERNAL_CTRL: Final = 7111  # {"data": fsm.InternalCtrl}
 
 LOCO_GET_APIS: Final = (
     LOCO_GET_FSM_ID,

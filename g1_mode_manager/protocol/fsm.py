@@ -29,6 +29,19 @@ STANDING_FSM_IDS: Final = frozenset({FsmId.STAND_UP, FsmId.WALK_OLD, FsmId.START
 WALKING_FSM_IDS: Final = frozenset({FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST, FsmId.RUN, FsmId.RUN_29DOF})
 
 
+#: GetFsmId while the robot is under user control (SwitchToUserCtrl, 7110; newer firmware): its built-in
+#: controller no longer drives the joints, ``rt/user_lowcmd`` does. Not a SetFsmId target.
+USER_CTRL_FSM_ID: Final = 1000
+
+
+class InternalCtrl(IntEnum):
+    """SwitchToInternalCtrl's ``{"data": ...}``: which built-in controller takes the robot back (7111)."""
+
+    LAST = 0  # the controller that ran before the switch
+    PASSIVE = 1  # damping (fsm 1)
+    WALKRUN = 2  # the walk-run controller, standing
+
+
 class FsmMode(IntEnum):
     """SportModeState_.fsm_mode / GetFsmMode."""
 

@@ -5,6 +5,9 @@ from typing import Final
 LOWCMD: Final = "rt/lowcmd"
 LOWSTATE: Final = "rt/lowstate"
 ARM_SDK: Final = "rt/arm_sdk"
+#: Joint commands while the robot is under user control (newer firmware, after SwitchToUserCtrl):
+#: unitree_hg LowCmd_ as on rt/lowcmd, CRC filled.
+USER_LOWCMD: Final = "rt/user_lowcmd"
 SPORTMODESTATE: Final = "rt/sportmodestate"
 #: The robot's low-rate copies: the same LowState_ decimated, and the battery (unitree_hg BmsState_).
 LF_LOWSTATE: Final = "rt/lf/lowstate"
