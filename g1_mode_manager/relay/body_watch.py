@@ -20,10 +20,10 @@ from typing import Protocol
 from g1_mode_manager.core.body.checks import UPRIGHT_FSM_IDS, Reaction
 from g1_mode_manager.core.body.monitor import BodyMonitor
 from g1_mode_manager.core.body.readings import BodyReadings, readings_of
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus, Outcome
-from g1_mode_manager.relay.events import RelayEvents
 
 #: A remote frame older than this says nothing about the keys held now (rt/lowstate: 2 ms; lf: 50 ms), s.
 REMOTE_FRESH_S = 0.2
