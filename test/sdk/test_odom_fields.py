@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from cyclonedds.idl._support import Endianness
+from cyclonedds.idl import Endianness
 from unitree_sdk2py.idl.default import unitree_go_msg_dds__SportModeState_
 
 from g1_mode_manager.protocol.idl import OdomModeState_
