@@ -1,9 +1,10 @@
 """The layers import only downward: a claim the README makes, checked here.
 
-``core/`` (the state machine, the robot port, the body checks) and ``relay/`` (the stream workers) import
-with ROS and DDS made unimportable; the sim shares only ``protocol/`` with the product; g1ctl and the
-console reach the node over ROS 2, never through its modules; benchmarks share the harness with the
-tests, never the tests themselves.
+``core/`` (the state machine, the robot port, the body checks), ``relay/`` (the stream workers) and
+``display/`` (the head LED) import with ROS and DDS made unimportable; the sim shares only ``protocol/``
+with the product; g1ctl and the console reach the node over ROS 2, never through its modules, and the
+display they share with it imports only the core; benchmarks share the harness with the tests, never
+the tests themselves.
 """
 
 from __future__ import annotations
@@ -76,15 +77,18 @@ def _is_ros_or_dds(module: str) -> bool:
     return _top(module) in ROS_AND_DDS or _top(module).startswith(("rosidl_", "rcl_", "rmw_"))
 
 
-def test_core_and_relay_import_with_ros_and_dds_blocked() -> None:
-    script = _IMPORT_ALL_BLOCKED.format(blocked=ROS_AND_DDS, packages=("g1_mode_manager.core", "g1_mode_manager.relay"))
+PURE = ("core", "relay", "display")
+
+
+def test_core_relay_and_display_import_with_ros_and_dds_blocked() -> None:
+    script = _IMPORT_ALL_BLOCKED.format(blocked=ROS_AND_DDS, packages=tuple(f"g1_mode_manager.{p}" for p in PURE))
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, (str(ROOT), os.environ.get("PYTHONPATH"))))}
     done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=60)
-    assert done.returncode == 0, f"core/ and relay/ must import without ROS and DDS:\n{done.stdout}{done.stderr}"
+    assert done.returncode == 0, f"core/, relay/ and display/ must import without ROS and DDS:\n{done.stdout}{done.stderr}"
 
 
-def test_core_and_relay_name_no_ros_or_dds_module_even_inside_a_function() -> None:
-    for layer in ("core", "relay"):
+def test_core_relay_and_display_name_no_ros_or_dds_module_even_inside_a_function() -> None:
+    for layer in PURE:
         found = _offending(PACKAGE / layer, lambda module, _name: _is_ros_or_dds(module))
         assert not found, f"{layer}/ is ROS- and DDS-free:\n" + "\n".join(found)
 
@@ -93,6 +97,17 @@ def test_core_imports_nothing_above_it() -> None:
     above = tuple(f"g1_mode_manager.{p}" for p in ("relay", "sdk", "node", "display", "console", "cli", "demo"))
     found = _offending(PACKAGE / "core", lambda module, _name: module.startswith(above))
     assert not found, "core/ imports only core/ and protocol/ of the product:\n" + "\n".join(found)
+
+
+def test_the_display_imports_only_the_core() -> None:
+    def bad(module: str, _name: str) -> bool:
+        return _top(module) == "g1_mode_manager" and not module.startswith(("g1_mode_manager.display",
+                                                                             "g1_mode_manager.core",
+                                                                             "g1_mode_manager.protocol"))  # fmt: skip
+
+    found = _offending(PACKAGE / "display", bad)
+    assert not found, "display/ (shared by the node and the console) imports only core/ and protocol/:\n" + (
+        "\n".join(found))
 
 
 def test_the_sim_shares_only_protocol_with_the_product() -> None:
