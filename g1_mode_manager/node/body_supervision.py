@@ -12,13 +12,13 @@ from std_srvs.srv import Trigger
 
 from g1_mode_manager.core.body.checks import BY_NAME, Reaction
 from g1_mode_manager.core.body.monitor import BodyMonitor, CheckStatus
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.node.settings import Settings, parse_keys
 from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.relay.body_watch import BodyWatch
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.periodic import PeriodicWorker
 
 _LEVELS = {"fault": DiagnosticStatus.ERROR, "hold": DiagnosticStatus.ERROR, "warn": DiagnosticStatus.WARN,

@@ -8,12 +8,12 @@ from collections.abc import Callable, Sequence
 
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.arm_ramp import ArmWeightRamp, robot_accepts_arm_sdk
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.joint_commands import JointCommandError, validate_arm_targets
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
 #: Ramp-out waits (leaving HIGH_LEVEL, shutdown) give up this long after the ramp should have ended.

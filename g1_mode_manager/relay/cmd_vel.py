@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable
 
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import PendingReply, RobotError, RobotPort
 from g1_mode_manager.core.velocity import (
@@ -29,7 +30,6 @@ from g1_mode_manager.core.velocity import (
     sanitize,
 )
 from g1_mode_manager.core.watchdog import Watchdog
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
 #: While the command is still ramping, the sender steps this often (and this is the limiter's largest dt).

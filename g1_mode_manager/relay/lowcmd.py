@@ -8,11 +8,11 @@ import time
 from collections.abc import Callable, Sequence
 
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
 #: Damping frames written at once when LOW_LEVEL is left: more than one, so a lost frame does not leave

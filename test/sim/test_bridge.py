@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 from unitree_sdk2py.comm.motion_switcher.motion_switcher_client import MotionSwitcherClient
-from unitree_sdk2py.core.channel import ChannelFactory, ChannelPublisher, ChannelSubscriber
+from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
 from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
 
@@ -163,14 +163,14 @@ EXPECTED_MINIMAL_IDS = {
 def test_bridge_topics_carry_the_robots_type_identifiers(sdk_channels: int, sim_bridge_factory) -> None:  # noqa: F811
     """The bridge's writers/readers announce the same types as ours, whose minimal ids equal the robot's."""
     from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
-    from cyclonedds.idl._xt_builder import XTBuilder
 
-    from g1_mode_manager.protocol.dds import minimal_type_id
+    from g1_mode_manager.protocol.cyclone_internals import complete_type_id
+    from g1_mode_manager.protocol.dds import minimal_type_id, sdk_participant
 
     for idl_type, expected in EXPECTED_MINIMAL_IDS.items():
         assert "f1" + minimal_type_id(idl_type) == expected  # 0xf1: EK_MINIMAL, then the 14-byte hash
     sim_bridge_factory(speed=1.0)
-    participant = ChannelFactory()._ChannelFactory__participant
+    participant = sdk_participant()
     own = participant.guid
     wanted = {(BuiltinTopicDcpsPublication, topics.LOWSTATE): LowState_,
               (BuiltinTopicDcpsPublication, topics.SPORTMODESTATE): SportModeState_,
@@ -188,8 +188,7 @@ def test_bridge_topics_carry_the_robots_type_identifiers(sdk_channels: int, sim_
         time.sleep(0.1)
     assert set(found) == set(wanted), f"bridge endpoints not discovered: {set(wanted) - set(found)}"
     for key, idl_type in wanted.items():
-        info, _ = XTBuilder.process_type(idl_type)
-        assert found[key] == bytes(info.complete.typeid_with_size.type_id.value), key
+        assert found[key] == complete_type_id(idl_type), key
 
 
 def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_factory) -> None:  # noqa: F811
