@@ -1,8 +1,8 @@
 """The node's robot-side parts, each built once and named: the mode machine and what reads it or goes through
 its forward gate (relays and their workers, loco commands, the supervisor, the body watch, the head LED).
 
-The machine comes first: every other part reads it or goes through its gate. The node's ROS side (what it
-publishes, serves and takes) reaches these parts by name; see wiring.py.
+Each is built from parts built before it, so none has to ask whether another exists yet; the node's ROS side
+(what it publishes, serves and takes) is built after them, in wiring.py.
 """
 
 from __future__ import annotations
@@ -30,6 +30,8 @@ from g1_mode_manager.relay.walk_judge import WalkJudge
 
 @dataclass(frozen=True)
 class Parts:
+    """Each part by name; the ROS side reads what it needs from here."""
+
     port: RobotPort
     log: NodeLog
     machine: ModeMachine
