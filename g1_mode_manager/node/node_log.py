@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from rclpy.impl.rcutils_logger import RcutilsLogger
 
-from g1_mode_manager.core.records import Result, TransitionRecord
 from g1_mode_manager.core.events import RelayEvents
+from g1_mode_manager.core.records import Result, TransitionRecord
 
 
 class NodeLog:
