@@ -15,6 +15,17 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+#: The repository's root, on every child's PYTHONPATH: a script the harness starts by path (a scripted robot, a
+#: test's helper process) imports harness/ from there however pytest or a benchmark was started.
+_ROOT = str(Path(__file__).resolve().parents[1])
+
+
+def child_env(env: dict[str, str] | None = None) -> dict[str, str]:
+    """This process's environment with ``env`` over it and the repository's root first on PYTHONPATH."""
+    merged = {**os.environ, **(env or {})}
+    merged["PYTHONPATH"] = os.pathsep.join(p for p in (_ROOT, merged.get("PYTHONPATH", "")) if p)
+    return merged
+
 
 class ManagedProcess:
     """A subprocess whose output is collected; stop() ends it (SIGINT, then SIGTERM, then SIGKILL)."""
@@ -25,7 +36,7 @@ class ManagedProcess:
         self._lock = threading.Lock()
         self.proc = subprocess.Popen(
             list(argv),
-            env={**os.environ, **(env or {})},
+            env=child_env(env),
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             stdin=subprocess.DEVNULL,

@@ -84,7 +84,9 @@ def test_estop_from_low_level_reselects_the_service_then_damps(shared_stack_fact
 
 
 def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(shared_stack_factory) -> None:
-    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}})
+    # hung in the gantry, as for any low-level work: a limp robot falling in LOW_LEVEL trips a body check (FAULT)
+    # before the mode change below on a loaded machine
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}}, bridge_args=("--gantry",))
     assert stack.set_mode("low_level").success
     selects = stack.requests(SWITCHER, api_ids.MS_SELECT_MODE)
     with ThreadPoolExecutor(1) as pool:
