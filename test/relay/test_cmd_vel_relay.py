@@ -41,8 +41,9 @@ def test_dropped_outside_high_level_with_warning_naming_the_mode(events, logs, c
     port = FakeRobotPort()
     for mode in (Mode.UNINITIALIZED, Mode.IDLE, Mode.LOW_LEVEL, Mode.EMERGENCY):
         relay = _relay(port, Gate(mode), events, clock)
-        assert relay.submit(0.5, 0.0, 0.0) is None
-        relay.step()
+        relay.submit(0.5, 0.0, 0.0)
+        relay.step()  # the forward gate refuses: the command taken since the last step is dropped
+        relay.step()  # nothing new taken: nothing more dropped
     assert _moves(port) == []
     assert events.counts()["cmd_vel_dropped"] == 4
     assert ("warn", "cmd_vel dropped: mode is UNINITIALIZED, velocity commands pass only in HIGH_LEVEL") in logs
