@@ -127,7 +127,9 @@ class ArmRelay:
         # one decision per frame: whether to ramp in, hold, ramp out or send nothing follows from it
         with self._gate.forwarding(modes.allows_arm_commands) as decision:
             dropped = self._take_targets(decision.allowed)
-            self._frame(decision, dt_s)
+            why_not = self._frame(decision, dt_s)
+        if why_not is not None:  # logged after the gate: it covers the decision and the write only
+            self._events.log(*why_not)
         if dropped:
             self._events.count("arm_cmd_dropped", dropped)
             self._events.log("warn", "arm_dropped", f"arm_cmd dropped: mode is {decision.mode.name}, "
@@ -146,36 +148,35 @@ class ArmRelay:
         self._watchdog.reset()
         return count
 
-    def _frame(self, decision: ForwardDecision, dt_s: float) -> None:
-        """At most one frame, under the gate that judged ``decision``."""
+    def _frame(self, decision: ForwardDecision, dt_s: float) -> tuple[str, str, str] | None:
+        """At most one frame, under the gate that judged ``decision``; returns a log line (level, key, text)
+        saying why a weight above 0 could not be sent, if so."""
         weight = self._ramp.weight
         if decision.mode is Mode.EMERGENCY:  # the e-stop's Damp owns the robot: no arm_sdk frame at all
             if weight > 0.0:
                 self._restart(clear_targets=True)
-            return
+            return None
         if not self._link.link_ok(decision.mode):
-            if weight > 0.0 and not self._link_lost:
-                self._events.log("error", "arm_link",
-                                 f"robot link lost: arm_sdk weight frozen at {weight:.2f} (the robot holds it)")
+            lost_now = weight > 0.0 and not self._link_lost
             self._link_lost = True
-            return
+            return ("error", "arm_link", f"robot link lost: arm_sdk weight frozen at {weight:.2f} (the robot "
+                    "holds it)") if lost_now else None
         self._link_lost = False
         state = self._port.sport_state()
         if state is None or not robot_accepts_arm_sdk(state.fsm_id, state.fsm_mode):
-            if weight > 0.0:
-                fsm = None if state is None else state.fsm_id
-                self._events.log("warn", "arm_not_accepted",
-                                 f"robot fsm {fsm} does not take arm_sdk: weight restarts from 0")
             self._restart(clear_targets=False)
-            return
+            fsm = None if state is None else state.fsm_id
+            return ("warn", "arm_not_accepted",
+                    f"robot fsm {fsm} does not take arm_sdk: weight restarts from 0") if weight > 0.0 else None
         wanted = (decision.allowed and not self._closing.is_set() and self._out_wanted == 0
                   and not self._watchdog.expired())
         if wanted:
             if weight == 0.0 and not self._capture_start():
-                return
+                return None
             self._send(True, dt_s)
         elif weight > 0.0 and modes.allows_arm_ramp_out(decision.mode):
             self._send(False, dt_s)
+        return None
 
     def _send(self, engage: bool, dt_s: float) -> None:
         weight = self._ramp.propose(engage, dt_s)
