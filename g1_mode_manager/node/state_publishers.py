@@ -91,7 +91,7 @@ class StatePublishers:
             high_level_service_known=status.service_known,
             high_level_service_active=status.service_active,
             damp_confirmed=status.damp_confirmed,
-            link_ok=self._parts.link.link_ok(),
+            link_ok=self._parts.link.link_ok(status.mode),
             last_refusal=status.last_refusal,
             last_error=status.last_error,
             robot_mismatch=status.robot_mismatch,
