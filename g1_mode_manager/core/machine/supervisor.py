@@ -11,13 +11,14 @@ Called periodically by the node (about 10 Hz) with the last rt/sportmodestate:
 from __future__ import annotations
 
 from g1_mode_manager.core.estop_policy import EstopTiming
+from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.machine.estop import Estop, verdict
 from g1_mode_manager.core.machine.gate import ForwardGate
 from g1_mode_manager.core.machine.state import MachineState
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import ModePort, RobotError
 from g1_mode_manager.core.service_steps import StepTimeoutError
-from g1_mode_manager.protocol.fsm import FsmId
+from g1_mode_manager.protocol.fsm import USER_CTRL_FSM_ID, FsmId
 
 #: rt/sportmodestate read within this long after the robot was verified damped is no evidence against it
 #: (the newest sample may predate the Damp: the robot publishes it faster than the supervision reads it), s.
@@ -59,6 +60,9 @@ class Supervisor:
             # a sample read just after a verification may have been sent before the Damp took effect
             settled = now - state.verified_at > STATE_SETTLE_S
         fresh = fsm_id is not None and state_age_s is not None and state_age_s <= timing.state_fresh_s and settled
+        user_ctrl = self._estop.user_ctrl
+        if user_ctrl is not None and fresh and fsm_id == USER_CTRL_FSM_ID:
+            user_ctrl.link.mark_live(DAMPING)  # a late switch: damping frames again, PASSIVE in the sequence
         why = ""
         if late:
             why = "a robot call landed after the e-stop began"
@@ -97,9 +101,20 @@ class Supervisor:
                 return
             state.next_belief = now + self._timing.belief_period_s
             version = state.version
+        user_ctrl = self._estop.user_ctrl is not None
         try:
             name = self._port.check_mode(timeout_s=self._timing.call_s)
+            # on the user_ctrl path the service stays active in LOW_LEVEL and the robot must show fsm 1000
+            fsm = self._port.get_fsm_id(timeout_s=self._timing.call_s) if user_ctrl and mode is Mode.LOW_LEVEL \
+                and name else None
         except Exception:  # a lost answer is link health's business, not a mismatch
+            return
+        if user_ctrl and mode is Mode.LOW_LEVEL:
+            if name and fsm == USER_CTRL_FSM_ID:
+                return
+            what = f"GetFsmId says {fsm}, not 1000 (user control)" if name else \
+                "CheckMode says the high-level service released"
+            self.report_mismatch(f"robot does not match LOW_LEVEL: {what}", version)
             return
         if bool(name) == (mode is Mode.HIGH_LEVEL):
             return
