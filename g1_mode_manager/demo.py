@@ -183,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
         # as the launch files run it: odometry on, on Fast DDS whatever the shell exports (node/one_dds_stack.py)
         node = Child("node", [py, "-u", "-m", "g1_mode_manager.node.main", "--ros-args",
                               "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo",
-                              "-p", "odom_rate_hz:=20.0"], "ready in",
+                              "-p", "odom_rate_hz:=20.0", "-p", "low_level_path:=release"], "ready in",
                      env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})  # fmt: skip
         children.append(node)
         node.wait_ready(30.0)

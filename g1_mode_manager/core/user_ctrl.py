@@ -118,11 +118,14 @@ class UserCtrlLink:
         self.filler: JointFrame = DAMPING
         self.entered_at = float("-inf")  # when fsm 1000 was seen by the entry (silence counts from there)
         self._switch_until = float("-inf")  # an accepted 7110 may still take effect until then
+        #: Wakes whoever writes ``filler`` (the lowcmd relay's worker sleeps while it has nothing to send).
+        self.wake: Callable[[], None] = lambda: None
 
     def begin(self, filler: JointFrame) -> None:
         with self._lock:
             self.filler = filler
             self.live = True
+        self.wake()
 
     def mark_live(self, filler: JointFrame | None = None) -> None:
         """fsm 1000 seen where it was not expected (a late switch): hold or damp the robot again."""
@@ -130,6 +133,7 @@ class UserCtrlLink:
             if filler is not None:
                 self.filler = filler
             self.live = True
+        self.wake()
 
     def switch_sent(self) -> None:
         """7110 is on its way: until it is answered the robot may switch at any moment."""

@@ -42,6 +42,7 @@ from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.stamps import stamp_age_s
+from g1_mode_manager.relay.user_lowcmd import UserLowCmdRelay
 from g1_mode_manager.relay.walk_judge import WalkJudge
 from g1_mode_manager.topic_qos import MODE_QOS
 
@@ -53,7 +54,7 @@ def unitree_port(settings: Settings) -> RobotPort:
     from g1_mode_manager.sdk.robot import UnitreeRobot
 
     return UnitreeRobot(settings.dds_domain, settings.network_interface, rpc_timeout_s=settings.rpc_timeout_s,
-                        mode_timeout_s=settings.select_timeout_s)
+                        mode_timeout_s=settings.select_timeout_s, user_ctrl=settings.user_ctrl_config() is not None)
 
 
 class ModeManagerNode(Node):
@@ -79,6 +80,7 @@ class ModeManagerNode(Node):
             on_record=self._on_record,
             on_change=self._on_change,
             on_alarm=self._on_alarm,
+            user_ctrl=s.user_ctrl_config(),  # None: low_level_path release
         )
         self._publish_lock = threading.Lock()
         self._published_version = -1
@@ -113,10 +115,7 @@ class ModeManagerNode(Node):
                              period_s=1.0 / s.arm_rate_hz)
         self._body = BodySupervision(self._port, self.machine, self._events, s, self._worker_error)
         self._body.serve(self._service_side, services)
-        self._lowcmd = LowCmdRelay(self._port, self.machine, self._link, self._events,
-                                   silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
-                                   service_active=lambda: self.machine.status().service_active,
-                                   deadman=self._body.watch.deadman_held)
+        self._lowcmd = self._lowcmd_relay(s)
         self._loco = LocoCommands(self._port, self.machine, outcome_timeout_s=s.loco_outcome_timeout_s,
                                   motion_timeout_s=s.loco_motion_timeout_s)
         # lowcmd first: its damping frames are the urgent ones; loco last: it only wakes waiting answers
@@ -157,6 +156,8 @@ class ModeManagerNode(Node):
                            busy=self._lowcmd.busy),
         ]
         self._arm_worker, self._lowcmd_worker = self._workers[1], self._workers[2]
+        if self.machine.user_ctrl_link is not None:  # the hand-over frames start while the worker may sleep
+            self.machine.user_ctrl_link.wake = self._lowcmd_worker.wake
         self._lowstate_demand = LowStateDemand(self._port, self.machine, self._arm.busy, self._link.link_ok,
                                                always=s.joint_state_rate_hz > 0)
         self.machine.add_leave_listener(self._wake_workers)  # after the relays': exit damping is due now
@@ -194,6 +195,25 @@ class ModeManagerNode(Node):
         self.get_logger().info(
             f"ready in {self.machine.mode.name}; robot side: interface {s.network_interface!r}, DDS domain "
             f"{s.dds_domain}; e-stop: {self._estop.service_name} and /estop")
+
+    def _lowcmd_relay(self, s: Settings) -> LowCmdRelay:
+        """~/lowcmd -> rt/lowcmd (low_level_path release) or rt/user_lowcmd (user_ctrl)."""
+        kwargs = dict(silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
+                      service_active=lambda: self.machine.status().service_active, deadman=self._body.watch.deadman_held)
+        config, link = s.user_ctrl_config(), self.machine.user_ctrl_link
+        if config is None or link is None:
+            return LowCmdRelay(self._port, self.machine, self._link, self._events, **kwargs)
+        return UserLowCmdRelay(self._port, self.machine, self._link, self._events, user_ctrl=link,
+                               silence=config.silence, hand_back=self.machine.hand_back_on_silence,
+                               hold_kp=config.hold_kp, hold_kd=config.hold_kd, **kwargs)
+
+    def _path_note(self, status: MachineStatus) -> list[str]:
+        """~/mode says which path LOW_LEVEL takes while it is, or is about to be, in it (the Mode message has no
+        field of its own for it; warnings is the list every client already shows)."""
+        target = status.transition_target if status.transition_in_progress else status.mode
+        if Mode.LOW_LEVEL not in (status.mode, target):
+            return []
+        return [f"low_level_path: {self.machine.low_level_path.value}"]
 
     # --- lifecycle -----------------------------------------------------------------------------
     def shutdown(self) -> None:
@@ -342,7 +362,7 @@ class ModeManagerNode(Node):
             reasserts=status.reasserts,
             faults=list(status.faults),
             holds=list(status.holds),
-            warnings=[*self._body.monitor.warnings(), *self._walk_warning()],
+            warnings=[*self._body.monitor.warnings(), *self._walk_warning(), *self._path_note(status)],
         ))
 
     def _judge_walk(self, v: Velocity, sent_at: float) -> None:

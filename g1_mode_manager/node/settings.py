@@ -17,7 +17,9 @@ from rclpy.parameter import Parameter
 
 from g1_mode_manager.core.body.checks import BY_NAME as BODY_CHECKS
 from g1_mode_manager.core.estop_policy import EstopTiming
+from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.user_ctrl import LowLevelPath, SilenceReaction, UserCtrlConfig
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
 from g1_mode_manager.protocol.remote import key_mask
@@ -95,11 +97,24 @@ class Settings:
     fault_clear_hold_s: float = 2.0
     remote_estop_keys: str = "L2+B"
     lowcmd_deadman_key: str = ""
+    # --- LOW_LEVEL's two paths (core/user_ctrl.py, docs/user_control.md) ---
+    low_level_path: str = LowLevelPath.USER_CTRL.value
+    user_ctrl_switch_timeout_s: float = UserCtrlConfig.switch_timeout_s
+    user_ctrl_hold_kp: float = UserCtrlConfig.hold_kp
+    user_ctrl_hold_kd: float = UserCtrlConfig.hold_kd
+    user_ctrl_silence: str = UserCtrlConfig.silence.value
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
                            total_s=self.estop_timeout_s, verify_period_s=self.estop_verify_period_s,
                            belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
+
+    def user_ctrl_config(self) -> UserCtrlConfig | None:
+        """The user_ctrl path's settings, or None on the release path."""
+        if LowLevelPath(self.low_level_path) is LowLevelPath.RELEASE:
+            return None
+        return UserCtrlConfig(switch_timeout_s=self.user_ctrl_switch_timeout_s, hold_kp=self.user_ctrl_hold_kp,
+                              hold_kd=self.user_ctrl_hold_kd, silence=SilenceReaction(self.user_ctrl_silence))
 
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
@@ -210,6 +225,18 @@ _DESCRIPTIONS: dict[str, str] = {
     "(the combination the built-in controller damps on); '' = off.",
     "lowcmd_deadman_key": "LOW_LEVEL dead-man: user lowcmd passes only while this remote key (or 'A+B') is held, "
     "damping frames otherwise; '' = off.",
+    "low_level_path": "How LOW_LEVEL is entered and left. 'user_ctrl' (newer firmware): a hand-over frame holds the "
+    "measured pose, SwitchToUserCtrl, fsm 1000 seen before a user frame passes; ~/lowcmd -> rt/user_lowcmd; exits hand "
+    "the robot back to its own controller (never limp). 'release': ReleaseMode, ~/lowcmd -> rt/lowcmd, the robot limp "
+    "on entry and exit. Firmware without user control refuses 'user_ctrl' with nothing changed. Read at start.",
+    "user_ctrl_switch_timeout_s": "user_ctrl: after SwitchToUserCtrl answered, GetFsmId must show 1000 within this "
+    "(else SwitchToInternalCtrl LAST and refused); after SwitchToInternalCtrl, another fsm within this, s.",
+    "user_ctrl_hold_kp": "user_ctrl: stiffness of the hand-over / hold frame (every joint at its measured pose) on "
+    "rt/user_lowcmd, N m/rad.",
+    "user_ctrl_hold_kd": "user_ctrl: damping of the hand-over / hold frame, N m s/rad.",
+    "user_ctrl_silence": "user_ctrl: what no ~/lowcmd for lowcmd_timeout_s does. 'hand_back': SwitchToInternalCtrl "
+    "WALKRUN when upright (|roll| <= 1.0, |pitch| <= 0.8 rad) and LOW_LEVEL -> IDLE, PASSIVE and FAULT when not; "
+    "'damp': damping frames on rt/user_lowcmd, LOW_LEVEL kept.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }
@@ -224,6 +251,9 @@ _RANGES: dict[str, tuple[float, float]] = {
     "battery_critical_pct": (0.0, 100.0),
     "body_check_rate_hz": (1.0, 500.0),
     "body_check_slow_rate_hz": (1.0, 500.0),
+    "user_ctrl_switch_timeout_s": (0.05, 10.0),
+    "user_ctrl_hold_kp": (0.0, MAX_KP),
+    "user_ctrl_hold_kd": (0.0, MAX_KD),
 }
 
 
@@ -266,6 +296,9 @@ def declare_settings(node: Node) -> Settings:
             LedLook.parse(values[name])
         except ValueError as exc:
             raise ValueError(f"parameter {name}: {exc}") from None
+    for name, choices in (("low_level_path", LowLevelPath), ("user_ctrl_silence", SilenceReaction)):
+        if values[name] not in {c.value for c in choices}:
+            raise ValueError(f"parameter {name}: {values[name]!r} is none of {', '.join(c.value for c in choices)}")
     for name in ("remote_estop_keys", "lowcmd_deadman_key"):
         try:
             parse_keys(values[name])

@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotError, RobotPort
+from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
@@ -39,6 +39,7 @@ class LowCmdRelay:
         self._service_active = service_active
         self._deadman = deadman
         self._port = port
+        self._send: Callable[[Sequence[MotorCommand]], None] = port.write_lowcmd  # rt/lowcmd: the release path
         self._gate = gate
         self._link = link
         self._events = events
@@ -131,7 +132,7 @@ class LowCmdRelay:
 
     def _write(self, frame: JointFrame, counter: str) -> str | None:
         try:
-            self._port.write_lowcmd(frame)
+            self._send(frame)
         except RobotError as exc:
             self._events.count("lowcmd_write_failures")
             self._events.log("error", "lowcmd_write", f"lowcmd write failed: {exc}")
