@@ -28,6 +28,7 @@ class StandIn:
 
     fsm_id: int = 4
     active: bool = True
+    user_ctrl_active: bool = False  # fsm 1000 in force (sport 7110)
     calls: list[tuple[str, Any]] = field(default_factory=list)
 
     def sport_active(self) -> bool:
@@ -102,6 +103,19 @@ class StandIn:
 
     def apply_lowcmd(self, q, dq, tau, kp, kd, enabled) -> None:  # type: ignore[no-untyped-def]
         self.calls.append(("lowcmd", (np.array(q), np.array(enabled))))
+
+    def apply_user_lowcmd(self, q, dq, tau, kp, kd, enabled) -> bool:  # type: ignore[no-untyped-def]
+        if self.user_ctrl_active:
+            self.calls.append(("user_lowcmd", (np.array(q), np.array(enabled))))
+        return self.user_ctrl_active
+
+    def switch_to_user_ctrl(self) -> int:
+        self.calls.append(("switch_to_user_ctrl", None))
+        return api.OK
+
+    def switch_to_internal_ctrl(self, target: int) -> int:
+        self.calls.append(("switch_to_internal_ctrl", target))
+        return api.OK
 
 
 # --- faults ------------------------------------------------------------------------------------

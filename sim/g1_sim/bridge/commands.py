@@ -1,7 +1,14 @@
-"""rt/lowcmd and rt/arm_sdk intake: check each frame as the robot does, count the ignored ones by reason.
+"""rt/lowcmd, rt/user_lowcmd and rt/arm_sdk intake: check each frame as the robot does, count the ignored ones
+by reason.
 
 rt/lowcmd (debug mode only): a frame whose CRC is wrong or whose ``mode_machine`` is not the robot's
-(5) is ignored; motors whose ``mode`` is not 1 are disabled (no torque).
+(5) is ignored; motors whose ``mode`` is not 1 are disabled (no torque). In user control it is ignored
+(``user_ctrl_active``): the joints are rt/user_lowcmd's.
+
+rt/user_lowcmd (user control only, newer firmware): checked as rt/lowcmd (CRC, ``mode_machine``, motor
+``mode``); outside user control, the switch's delay included, ignored (``not_user_ctrl``). Unitree's app
+template computes its CRC; its SDK example leaves CRC, ``mode_machine`` and ``mode`` at 0, and the sim takes
+the stricter reading (docs/robot_compat.md, "User control").
 
 rt/arm_sdk (built-in controller standing or walking): neither the CRC nor ``mode_machine`` nor the motor
 ``mode`` flags are checked. Unitree's own arm_sdk examples leave all three at 0 and work on the robot: the
@@ -36,6 +43,7 @@ from g1_mode_manager.protocol.motors import (
 )
 
 LOWCMD: Final = "lowcmd"
+USER_LOWCMD: Final = "user_lowcmd"
 ARM_SDK: Final = "arm_sdk"
 
 # Reasons a frame is ignored (counters; "received" and "accepted" count the rest).
@@ -44,6 +52,8 @@ BAD_MODE_MACHINE: Final = "bad_mode_machine"
 NON_FINITE: Final = "non_finite"
 NOT_DEBUG_MODE: Final = "not_debug_mode"  # lowcmd while the sport service owns the motors
 NOT_STANDING: Final = "not_standing"  # arm_sdk while the controller neither stands nor walks
+USER_CTRL_ACTIVE: Final = "user_ctrl_active"  # lowcmd while user control holds the joints
+NOT_USER_CTRL: Final = "not_user_ctrl"  # user_lowcmd outside user control
 # Informational (the frame still acts).
 MODE_MACHINE_NOT_5: Final = "mode_machine_not_5"
 MOTORS_DISABLED: Final = "motors_disabled"
@@ -76,6 +86,9 @@ class CommandRobot(Protocol):
     def standing_balanced(self) -> bool: ...
     def apply_arm_sdk(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, weight: float) -> None: ...
     def apply_lowcmd(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, enabled: Any) -> None: ...
+    def apply_user_lowcmd(self, q: Any, dq: Any, tau: Any, kp: Any, kd: Any, enabled: Any) -> bool: ...
+    @property
+    def user_ctrl_active(self) -> bool: ...
 
 
 def motor_arrays(msg: LowCmd_, indices: range | tuple[int, ...]) -> np.ndarray:
@@ -93,7 +106,7 @@ class CommandIntake:
         self._crc = crc
         self._on_frame = on_frame
         self._lock = threading.Lock()
-        self._counts: dict[str, Counter[str]] = {LOWCMD: Counter(), ARM_SDK: Counter()}
+        self._counts: dict[str, Counter[str]] = {LOWCMD: Counter(), USER_LOWCMD: Counter(), ARM_SDK: Counter()}
 
     def _count(self, topic: str, *keys: str) -> None:
         with self._lock:
@@ -122,15 +135,32 @@ class CommandIntake:
         return why
 
     def _check_lowcmd(self, msg: LowCmd_, m: np.ndarray, content: int) -> str | None:
-        if msg.crc != content:  # the robot's motor side checks it (Unitree's low-level examples compute it)
-            return BAD_CRC
-        if msg.mode_machine != MODE_MACHINE_G1_29DOF:
-            return BAD_MODE_MACHINE
-        if not np.isfinite(m).all():
-            return NON_FINITE
+        why = _check_motor_frame(msg, m, content)
+        if why is not None:
+            return why
+        if self._robot.user_ctrl_active:
+            return USER_CTRL_ACTIVE
         if self._robot.sport_active():
             return NOT_DEBUG_MODE
         return None
+
+    def on_user_lowcmd(self, msg: LowCmd_) -> str | None:
+        """Apply a rt/user_lowcmd frame; returns the reason it was ignored, or None. The robot decides whether
+        user control is in force (under its lock, so a frame never lands on the wrong side of the switch)."""
+        self._count(USER_LOWCMD, "received")
+        content = self._crc(msg)
+        m = motor_arrays(msg, range(NUM_JOINTS))
+        why = _check_motor_frame(msg, m, content)
+        enabled = m[0] == MOTOR_ENABLED
+        if why is None and not self._robot.apply_user_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled):
+            why = NOT_USER_CTRL
+        if why is None:
+            self._count(USER_LOWCMD, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
+        else:
+            self._ignore(USER_LOWCMD, why)
+        if self._on_frame is not None:
+            self._on_frame(USER_LOWCMD, why, 0.0, float(np.nanmax(m[4])), content, crc_state(int(msg.crc), content))
+        return why
 
     def on_arm_sdk(self, msg: LowCmd_) -> str | None:
         """Apply a rt/arm_sdk frame; returns the reason it was ignored, or None."""
@@ -162,3 +192,14 @@ class CommandIntake:
     def _ignore(self, topic: str, reason: str) -> str:
         self._count(topic, reason)
         return reason
+
+
+def _check_motor_frame(msg: LowCmd_, m: np.ndarray, content: int) -> str | None:
+    """The checks of a frame that drives all 29 motors (rt/lowcmd, rt/user_lowcmd)."""
+    if msg.crc != content:  # the robot's motor side checks it (Unitree's low-level examples compute it)
+        return BAD_CRC
+    if msg.mode_machine != MODE_MACHINE_G1_29DOF:
+        return BAD_MODE_MACHINE
+    if not np.isfinite(m).all():
+        return NON_FINITE
+    return None

@@ -18,7 +18,10 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "battery_soc": 15,           # report a 15 % charge while set
      "remote_keys": ["L2", "B"],  # these keys held on the operator's remote while set
      "push": {"force": 150, "direction": [1, 0], "duration": 0.3},  # shove the pelvis, once per setting
-     "freeze_lowstate": true}     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
+     "freeze_lowstate": true,     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
+     # user control (sport 7110/7111, newer firmware; firmware.user_ctrl):
+     "user_ctrl": "from_damp",    # the firmware option from now on (absent: sim_bridge --user-ctrl's)
+     "user_ctrl_delay_s": 0.05}   # s of sim time from an accepted 7110 to fsm 1000
 
 ``ignore_fsm_ids`` is what users report of firmware 1.5.3: Start (SetFsmId 500) answers 0 from some states and
 the robot stays where it was, while 501 works; a client that trusts the code believes it walks.
@@ -45,6 +48,7 @@ from typing import Any, Final
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 from g1_mode_manager.protocol.remote import KEY_NAMES, UnknownKeyError, key_mask
+from g1_sim.firmware import user_ctrl as user_ctrl_rules
 from g1_sim.firmware.odometry import OdomErrors
 
 #: What a failing Damp answers (the robot's controller timing out).
@@ -52,7 +56,7 @@ DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
 _KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed", "motor_temperature",
                    "battery_soc", "remote_keys", "push", "freeze_lowstate", "ignore_fsm_ids", "odom_drift",
-                   "odom_noise_m"})
+                   "odom_noise_m", "user_ctrl", "user_ctrl_delay_s"})
 #: odom_drift's keys and their bounds: signed scale errors, a creep speed.
 ODOM_DRIFT_BOUNDS: Final = {"xy_per_m": (-1.0, 1.0), "xy_mps": (0.0, 1.0), "yaw_per_rad": (-1.0, 1.0)}
 ODOM_NOISE_MAX_M: Final = 1.0
@@ -99,6 +103,8 @@ class FaultConfig:
     freeze_lowstate: bool = False
     ignore_fsm_ids: frozenset[int] = frozenset()
     odom: OdomErrors = field(default_factory=OdomErrors)
+    user_ctrl: str | None = None  # None: the bridge's own option (--user-ctrl)
+    user_ctrl_delay_s: float = user_ctrl_rules.DEFAULT_DELAY_S
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -117,6 +123,8 @@ class FaultConfig:
             "odom_drift": {"xy_per_m": self.odom.xy_per_m, "xy_mps": self.odom.xy_mps,
                            "yaw_per_rad": self.odom.yaw_per_rad},
             "odom_noise_m": self.odom.noise_m,
+            "user_ctrl": self.user_ctrl,
+            "user_ctrl_delay_s": self.user_ctrl_delay_s,
         }
 
 
@@ -201,7 +209,29 @@ def parse_faults(text: str) -> FaultConfig:
                        battery_soc=_battery_soc(raw.get("battery_soc")), remote_keys=_remote_keys(raw.get("remote_keys", [])),
                        push=_push(raw.get("push")), freeze_lowstate=freeze,
                        ignore_fsm_ids=_fsm_ids(raw.get("ignore_fsm_ids", []), "ignore_fsm_ids"),
-                       odom=_odom(raw.get("odom_drift", {}), raw.get("odom_noise_m")))  # fmt: skip
+                       odom=_odom(raw.get("odom_drift", {}), raw.get("odom_noise_m")),
+                       user_ctrl=_user_ctrl_option(raw.get("user_ctrl")),
+                       user_ctrl_delay_s=_user_ctrl_delay(raw.get("user_ctrl_delay_s")))  # fmt: skip
+
+
+def _user_ctrl_option(raw: Any) -> str | None:
+    if raw is None:
+        return None
+    if not isinstance(raw, str):
+        raise FaultConfigError(f"user_ctrl must be one of {[o.value for o in user_ctrl_rules.UserCtrlOption]}, got {raw!r}")
+    try:
+        return user_ctrl_rules.parse_option(raw).value
+    except ValueError as e:
+        raise FaultConfigError(str(e)) from None
+
+
+def _user_ctrl_delay(raw: Any) -> float:
+    if raw is None:
+        return user_ctrl_rules.DEFAULT_DELAY_S
+    try:
+        return user_ctrl_rules.check_delay(raw)
+    except ValueError as e:
+        raise FaultConfigError(str(e)) from None
 
 
 def _fsm_ids(raw: Any, where: str) -> frozenset[int]:

@@ -1,7 +1,7 @@
 """``sim_bridge``: the MuJoCo G1 behind the robot's own Unitree SDK2 DDS interface, plus a ROS 2 node.
 
     sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--gantry] [--soc PERCENT]
-               [--record FILE] [--ros-args -p "faults:='{...}'"]
+               [--user-ctrl none|from_damp|from_walkrun|either] [--record FILE] [--ros-args -p "faults:='{...}'"]
 
 ROS parameter values are YAML, so a JSON faults value needs YAML quotes inside the shell's:
 ``--ros-args -p "faults:='{\"drop\": [7101]}'"``.
@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from g1_sim.firmware.user_ctrl import DEFAULT_OPTION, UserCtrlOption
 from g1_sim.physics.battery import START_SOC
 
 READY_LINE = "sim_bridge ready"
@@ -45,6 +46,9 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--gantry", action="store_true",
                    help="hang the pelvis from a gantry's elastic band (parameter gantry, switchable at run time)")
     p.add_argument("--soc", type=float, default=START_SOC, help=f"battery charge at start, %% (default {START_SOC:g})")
+    p.add_argument("--user-ctrl", choices=[o.value for o in UserCtrlOption], default=DEFAULT_OPTION.value,
+                   help="the firmware's SwitchToUserCtrl (sport 7110): where it is accepted, or 'none' (3203, older "
+                        f"firmware); fault key user_ctrl changes it at run time (default {DEFAULT_OPTION.value})")
     p.add_argument("--viewer", action="store_true",
                    help="MuJoCo's passive viewer with the head LED drawn (needs a display; headless: a warning)")
     args = p.parse_args(list(argv))
@@ -102,7 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         node = BridgeNode(overrides=_overrides(args))
         try:
             bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event, record=args.record,
-                            soc=args.soc)  # fmt: skip
+                            soc=args.soc, user_ctrl=args.user_ctrl)  # fmt: skip
         except FaultConfigError as e:
             node.get_logger().error(f"bad faults parameter: {e}")
             return EXIT_BAD_CONFIG
@@ -145,11 +149,12 @@ class Bridge:
     """Everything but the ROS executor: the robot, its RPC services, topics and the sim thread."""
 
     def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event,
-                 record: str | None = None, soc: float = START_SOC) -> None:  # fmt: skip
+                 record: str | None = None, soc: float = START_SOC,
+                 user_ctrl: str = DEFAULT_OPTION.value) -> None:  # fmt: skip
         from g1_mode_manager.protocol import api_ids as api
         from g1_mode_manager.protocol.dds import init_channels
         from g1_sim.bridge.clock import Pacer, StampClock
-        from g1_sim.bridge.commands import CommandIntake
+        from g1_sim.bridge.commands import USER_LOWCMD, CommandIntake
         from g1_sim.bridge.faults import FaultConfig, Faults, parse_faults
         from g1_sim.bridge.record import Recorder
         from g1_sim.bridge.rpc_services import (
@@ -174,7 +179,8 @@ class Bridge:
         node.on_gantry = self.set_gantry
         t0 = time.monotonic()
         self._gantry = p.gantry  # a rig setting: a reset keeps it
-        self._make_robot = lambda: SimG1(assets, seed=seed, start_soc=soc, gantry=self._gantry)
+        self._user_ctrl = user_ctrl  # the firmware option unless the faults' user_ctrl says otherwise
+        self._make_robot = lambda: SimG1(assets, seed=seed, start_soc=soc, gantry=self._gantry, user_ctrl=user_ctrl)
         self.robot = RobotSlot(self._make_robot())  # every part holds the slot, so reset() can swap the robot
         log.info("robot ready in %.1f s (dt %.4f s)", time.monotonic() - t0, self.robot.dt)
         init_channels(p.dds_domain, p.network_interface, serve_multicast=True)  # found by every kind of client
@@ -205,6 +211,7 @@ class Bridge:
                 break
             server.Start()
         self.publishers = StatePublishers()
+        self._user_lowcmd_topic = USER_LOWCMD
         frame_hook = self._frame if self.record.enabled else None
         self.intake = CommandIntake(self.robot, on_frame=frame_hook)
         self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
@@ -242,6 +249,8 @@ class Bridge:
             self.robot.set_odometry_errors(new.odom, new.seed)
         if new.push is not None:
             self.robot.push(new.push.force_xy, new.push.duration_s)
+        if (new.user_ctrl, new.user_ctrl_delay_s) != (old.user_ctrl, old.user_ctrl_delay_s):
+            self.robot.set_user_ctrl(new.user_ctrl or self._user_ctrl, new.user_ctrl_delay_s)
         self._record_injections(old, new)
 
     def _record_injections(self, old: Any, new: Any) -> None:
@@ -269,6 +278,8 @@ class Bridge:
 
     def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, content_crc: int, crc: str) -> None:
         at = self.subscribers.arrival(topic, content_crc) if hasattr(self, "subscribers") else None
+        if topic == self._user_lowcmd_topic:  # the switch to fsm 1000 is on the record before any user frame it let through
+            self._record_state()
         self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc)
 
     def _body(self, sim_time: float, s: Any, report: Any) -> None:
@@ -322,7 +333,15 @@ class Bridge:
             "damp_fails_left": self.faults.damp_fails_left,
             "voice": self.voice.status(),
             "body": self._body_status(),
+            **self._user_ctrl_status(),
         }
+
+    def _user_ctrl_status(self) -> dict[str, Any]:
+        """``user_ctrl`` (fsm 1000 in force), ``user_ctrl_switching`` (7110 accepted, its delay running),
+        ``user_ctrl_option`` (the firmware option now) and ``user_ctrl_delay_s``."""
+        uc = self.robot.user_ctrl_status()
+        return {"user_ctrl": uc["user_ctrl"], "user_ctrl_switching": uc["switching"],
+                "user_ctrl_option": uc["option"], "user_ctrl_delay_s": uc["delay_s"]}  # fmt: skip
 
     def _body_status(self) -> dict[str, Any]:
         """Hottest winding and casing, soc (as the robot reports them, injections included), tilt, gantry."""

@@ -13,6 +13,9 @@ Decisions where the robot's behaviour is not documented:
 * A malformed parameter (not JSON, missing or mistyped field) answers 3204 and nothing acts.
 * Fault ``ignore_fsm_ids``: SetFsmId of those ids answers 0 and nothing changes (the firmware quirk users
   report for Start); counted and recorded like any handled request.
+* SwitchToUserCtrl (7110) and SwitchToInternalCtrl (7111): the robot's (firmware.user_ctrl) decides, 3203
+  included where the firmware option is ``none``; 7110's parameter is not looked at (the SDK sends
+  ``{"data": false}``), 7111's ``data`` must be 0, 1 or 2 (else 3204).
 * Fault ``error``: answered with the given code, not handled. ``drop``: neither handled nor
   answered. ``delay_s``: handled and answered after the delay, in a timer thread, so requests to
   other api ids are served meanwhile.
@@ -65,6 +68,8 @@ class SportRobot(Protocol):
     def release_mode(self) -> int: ...
     def get_silent(self) -> Any: ...
     def set_silent(self, silent: bool) -> int: ...
+    def switch_to_user_ctrl(self) -> int: ...
+    def switch_to_internal_ctrl(self, target: int) -> int: ...
 
 
 class BadParameterError(ValueError):
@@ -113,7 +118,7 @@ def _guarded(handler: Callable[[dict[str, Any]], Reply]) -> Handler:
 
 
 def sport_handlers(robot: SportRobot, faults: Faults) -> dict[int, Handler]:
-    """Handlers of the sport service by api id (GetPhase, user/internal ctrl: 3203)."""
+    """Handlers of the sport service by api id (GetPhase: 3203)."""
 
     def set_fsm_id(p: dict[str, Any]) -> Reply:
         fsm_id = _integer(p, "data")
@@ -146,6 +151,8 @@ def sport_handlers(robot: SportRobot, faults: Faults) -> dict[int, Handler]:
         api.LOCO_SET_VELOCITY: set_velocity,
         api.LOCO_SET_SPEED_MODE: lambda p: (robot.set_speed_mode(_integer(p, "data")), ""),
         api.LOCO_SET_ARM_TASK: lambda p: (robot.set_arm_task(_integer(p, "data")), ""),
+        api.LOCO_SWITCH_TO_USER_CTRL: lambda p: (robot.switch_to_user_ctrl(), ""),
+        api.LOCO_SWITCH_TO_INTERNAL_CTRL: lambda p: (robot.switch_to_internal_ctrl(_integer(p, "data")), ""),
     }
 
     def only_while_active(handler: Handler) -> Handler:

@@ -1,5 +1,5 @@
 """DDS topics of the simulated G1: rt/lowstate, rt/lf/lowstate, rt/sportmodestate, rt/lf/bmsstate,
-rt/secondary_imu, rt/odommodestate and rt/lf/odommodestate out, rt/lowcmd and rt/arm_sdk in."""
+rt/secondary_imu, rt/odommodestate and rt/lf/odommodestate out, rt/lowcmd, rt/user_lowcmd and rt/arm_sdk in."""
 
 from __future__ import annotations
 
@@ -34,10 +34,11 @@ from g1_sim.physics.battery import CELLS
 log = logging.getLogger(__name__)
 
 #: Reader queue lengths of the command topics: the SDK's reader drops every new frame beyond them. rt/lowcmd:
-#: the robot's 500 Hz loop takes the latest frame, so a stalled sim may skip stale ones (4 = 8 ms). rt/arm_sdk:
+#: the robot's 500 Hz loop takes the latest frame, so a stalled sim may skip stale ones (4 = 8 ms); rt/user_lowcmd
+#: likewise. rt/arm_sdk:
 #: every 50 Hz frame, as the robot (C++, no GIL) receives them: a sim process starved for 150 ms on a
 #: loaded machine dropped 3-4 frames of 4 and recorded arm weight steps the node never sent (1.28 s here).
-COMMAND_QUEUE_LEN: Final = {topics.LOWCMD: 4, topics.ARM_SDK: 64}
+COMMAND_QUEUE_LEN: Final = {topics.LOWCMD: 4, topics.USER_LOWCMD: 4, topics.ARM_SDK: 64}
 #: BmsState_ fields the sim has no model for: plausible constants (firmware version, health, cycles).
 BMS_VERSION = (1, 0)
 BMS_SOH = 100
@@ -208,12 +209,13 @@ def _matched_readers(publisher: ChannelPublisher) -> int:
 
 
 class CommandSubscribers:
-    """Readers of rt/lowcmd and rt/arm_sdk, feeding a CommandIntake."""
+    """Readers of rt/lowcmd, rt/user_lowcmd and rt/arm_sdk, feeding a CommandIntake."""
 
     def __init__(self, intake: CommandIntake, *, stamp_arrivals: bool = False) -> None:
         self._subs: list[Any] = []
         self._arrivals: dict[str, Arrivals] = {}
-        for topic, handler in ((topics.LOWCMD, intake.on_lowcmd), (topics.ARM_SDK, intake.on_arm_sdk)):
+        for topic, handler in ((topics.LOWCMD, intake.on_lowcmd), (topics.USER_LOWCMD, intake.on_user_lowcmd),
+                               (topics.ARM_SDK, intake.on_arm_sdk)):  # fmt: skip
             sub = ChannelSubscriber(topic, LowCmd_)
             sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN[topic])
             self._subs.append(sub)

@@ -11,6 +11,9 @@ because that is what a user of the sim wants first. ``start_fsm=0``/``1`` boots 
 The body around the motors: temperatures and battery (firmware.body), the operator's remote (L2+B damps,
 firmware.rules), and forces from outside on the pelvis: the gantry and pushes (physics.pelvis_forces).
 The state estimator (rt/odommodestate) is firmware.odometry's: the truth with drift and noise.
+
+User control (7110/7111, rt/user_lowcmd; newer firmware): the rules are firmware.user_ctrl's; here the joints
+change hands. In force, a LowLevelController of its own takes the newest user frame received since the switch.
 """
 
 from __future__ import annotations
@@ -34,10 +37,12 @@ from g1_mode_manager.protocol.api_ids import (
 from g1_mode_manager.protocol.fsm import (
     SPEED_MODE_MAX_SPEED,
     STANDING_FSM_IDS,
+    USER_CTRL_FSM_ID,
     WALKING_FSM_IDS,
     BalanceMode,
     FsmId,
     FsmMode,
+    InternalCtrl,
 )
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, MODE_MACHINE_G1_29DOF, NUM_JOINTS
 from g1_sim.assets import assets_dir, policy_onnx
@@ -53,6 +58,16 @@ from g1_sim.firmware.arm_tasks import (
 from g1_sim.firmware.body import Body
 from g1_sim.firmware.odometry import OdomErrors, OdomEstimate, Odometer
 from g1_sim.firmware.state import BasePose, BodySnapshot, ImuSnapshot, LowStateSnapshot, quat_to_rpy, rpy_of, tilt_rad
+from g1_sim.firmware.user_ctrl import (
+    DEFAULT_DELAY_S,
+    DEFAULT_OPTION,
+    UserCtrl,
+    UserCtrlOption,
+    check_delay,
+    internal_target,
+    parse_option,
+    switch_in_verdict,
+)
 from g1_sim.physics.battery import START_SOC
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
@@ -118,7 +133,8 @@ class SimG1:
 
     def __init__(self, assets: str | Path | None = None, *, start_fsm: int = FsmId.STAND_UP,
                  start_service: str = "ai", seed: int = 0, start_soc: float = START_SOC,
-                 gantry: bool = False) -> None:
+                 gantry: bool = False, user_ctrl: str = DEFAULT_OPTION,
+                 user_ctrl_delay_s: float = DEFAULT_DELAY_S) -> None:
         root = assets_dir(assets).resolve()
         self._g1 = shared_model(root)
         self._data = mujoco.MjData(self._g1.model)
@@ -137,6 +153,8 @@ class SimG1:
         self._zero = ZeroTorqueController()
         self._damp = DampController()
         self._lowlevel = LowLevelController()
+        self._user = LowLevelController()  # rt/user_lowcmd in user control
+        self._uc = UserCtrl(parse_option(user_ctrl), check_delay(user_ctrl_delay_s))
         self._arm = ArmSdkBlend()
         self._tasks = ArmTaskPlayer()  # SetArmTask and the arm service's actions
         self._squat = PostureHarness(self._g1, SQUAT_POSE, float(standing_qpos(self._g1.model, SQUAT_POSE)[2]))
@@ -166,7 +184,8 @@ class SimG1:
         self.counters: dict[str, int] = dict.fromkeys(
             ("set_fsm_requests", "damp_requests", "refused", "invalid_fsm", "velocity_requests",
              "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls", "remote_damps",
-             "pushes"), 0)
+             "pushes", "user_ctrl_switches", "user_ctrl_refused", "internal_ctrl_switches", "user_ctrl_ignored_calls",
+             "user_lowcmd_frames", "user_lowcmd_ignored"), 0)
         self._fallen = False
 
         if start_service:
@@ -210,6 +229,8 @@ class SimG1:
         """Advance ``n`` physics steps (2 ms each); firmware bookkeeping runs at the policy's 50 Hz."""
         for _ in range(n):
             with self._lock:
+                if self._uc.due(self.time):
+                    self._begin_user_ctrl()
                 if self._steps % self._decimation == 0:
                     self._tick()
                 self._loco.arm_weight = self._arm.weight
@@ -267,7 +288,7 @@ class SimG1:
     def _remote_tick(self) -> None:
         """L2+B pressed (both held, not held together before) damps while a service is active."""
         held = rules.remote_requests_damp(self._remote)
-        if held and not self._remote_damp_held and self._service:
+        if held and not self._remote_damp_held and self._service and not self._uc.engaged:
             self.counters["remote_damps"] += 1
             if self._fsm != FsmId.DAMP:
                 self._enter(int(FsmId.DAMP))
@@ -329,6 +350,8 @@ class SimG1:
                 self.counters["damp_requests"] += 1
             if not self._service:
                 return self._log("SetFsmId", fsm_id, ERR_SERVER_API_NOT_IMPL)
+            if self._uc.engaged:
+                return self._ignored_in_user_ctrl("SetFsmId", fsm_id)
             code = rules.set_fsm_verdict(self._fsm, fsm_id, dynamic=self._fsm_mode == FsmMode.DYNAMIC)
             if code == OK and fsm_id != self._fsm:
                 self._enter(int(fsm_id))
@@ -397,6 +420,8 @@ class SimG1:
             self.counters["velocity_requests"] += 1
             if not self._service:
                 return ERR_SERVER_API_NOT_IMPL
+            if self._uc.engaged:
+                return self._ignored_in_user_ctrl("SetVelocity", (vx, vy, wz))
             code = rules.set_velocity_verdict(self._fsm)
             if code == OK and not self._balanced():
                 code = ERR_REFUSED_IN_STATE
@@ -506,6 +531,7 @@ class SimG1:
                 return self._log("SelectMode", name, ERR_SERVER_API_PARAMETER)
             if name != self._service:
                 self._service = name
+                self._uc.end()
                 self._lowlevel.clear()
                 self._arm.weight = 0.0
                 self._enter(int(FsmId.ZERO_TORQUE))
@@ -516,6 +542,7 @@ class SimG1:
         with self._lock:
             if self._service:
                 self._service = ""
+                self._uc.end()
                 self._fsm = int(FsmId.ZERO_TORQUE)
                 self._fsm_mode = int(FsmMode.STATIC)
                 self._velocity[:] = 0.0
@@ -533,6 +560,99 @@ class SimG1:
         with self._lock:
             self._silent = bool(silent)
             return OK
+
+    # --- user control (sport 7110 / 7111, rt/user_lowcmd; newer firmware) ------------------------------
+
+    def set_user_ctrl(self, option: str, delay_s: float) -> None:
+        """The firmware option and the switch's delay from now on (a switch already pending keeps its time)."""
+        with self._lock:
+            self._uc.option = parse_option(option)
+            self._uc.delay_s = check_delay(delay_s)
+
+    def user_ctrl_status(self) -> dict[str, object]:
+        """``user_ctrl``: fsm 1000 in force; ``switching``: 7110 accepted, the delay running."""
+        with self._lock:
+            uc = self._uc
+            return {"user_ctrl": uc.active, "switching": uc.engaged and not uc.active, "option": uc.option.value,
+                    "delay_s": uc.delay_s}  # fmt: skip
+
+    @property
+    def user_ctrl_active(self) -> bool:
+        """fsm 1000: the joints follow rt/user_lowcmd, rt/lowcmd is ignored."""
+        with self._lock:
+            return self._uc.active
+
+    def switch_to_user_ctrl(self) -> int:
+        """sport 7110: accepted per the firmware option (firmware.user_ctrl); takes effect after the delay."""
+        with self._lock:
+            code = switch_in_verdict(self._uc.option, self._fsm, balanced=self._balanced(), phase=self._uc.phase)
+            if code == OK:
+                self.counters["user_ctrl_switches"] += 1
+                self._uc.begin(self.time, self._fsm)
+            else:
+                self.counters["user_ctrl_refused"] += 1
+            return self._log("SwitchToUserCtrl", "", code)
+
+    def switch_to_internal_ctrl(self, target: int) -> int:
+        """sport 7111: in user control a built-in controller takes over from the pose it finds; otherwise (a
+        switch still pending included) 0 and nothing changes."""
+        with self._lock:
+            if self._uc.option is UserCtrlOption.NONE and not self._uc.engaged:
+                return self._log("SwitchToInternalCtrl", target, ERR_SERVER_API_NOT_IMPL)
+            if target not in tuple(InternalCtrl):
+                return self._log("SwitchToInternalCtrl", target, ERR_SERVER_API_PARAMETER)
+            if not self._uc.active:
+                return self._log("SwitchToInternalCtrl", target, OK)
+            self.counters["internal_ctrl_switches"] += 1
+            self._take_back(internal_target(InternalCtrl(target), self._uc.before))
+            return self._log("SwitchToInternalCtrl", InternalCtrl(target).name, OK)
+
+    def _begin_user_ctrl(self) -> None:
+        """The delay is over: fsm 1000, no built-in controller, and no user command yet (limp)."""
+        self._uc.activate()
+        self._fsm = USER_CTRL_FSM_ID
+        self._fsm_mode = int(FsmMode.STATIC)
+        self._velocity[:] = 0.0
+        self._velocity_until = 0.0
+        self._arm.weight = 0.0
+        self._tasks.stop()
+        self._user.clear()  # frames count only from now on
+        self._switch(self._user)
+        log.info("t=%.2f user control in force (fsm %d)", self.time, self._fsm)
+
+    def _take_back(self, fsm: int) -> None:
+        """A built-in controller takes the joints as they are: damping, the policy (walking fsm ids) or lock
+        stand where the feet are (stand-up ids: no stand-up motion, the robot is taken as found)."""
+        self._uc.end()
+        self._user.clear()
+        self._fsm = fsm
+        self._loco.command[:] = 0.0
+        if fsm == FsmId.DAMP:
+            self._switch(self._damp)
+        elif fsm in WALKING_FSM_IDS:
+            self._switch(self._loco)
+        else:
+            self._switch(self._stance)
+        self._fsm_mode = int(FsmMode.STATIC)
+
+    def _ignored_in_user_ctrl(self, call: str, arg: object) -> int:
+        """SetFsmId and Move while a switch is pending or in force: 0, and nothing happens (a conservative
+        reading: a client must read the fsm back, never trust the code)."""
+        self.counters["user_ctrl_ignored_calls"] += 1
+        log.info("t=%.2f %s(%s) in user control: 0, nothing done", self.time, call, arg)
+        return OK
+
+    def apply_user_lowcmd(self, q: ArrayLike, dq: ArrayLike, tau: ArrayLike, kp: ArrayLike, kd: ArrayLike,
+                          enabled: ArrayLike) -> bool:
+        """rt/user_lowcmd (29 values each, ``enabled`` = motor mode 1): applied only in user control, held until
+        the next frame. False (ignored) otherwise, the pending switch's delay included."""
+        with self._lock:
+            if not self._uc.active:
+                self.counters["user_lowcmd_ignored"] += 1
+                return False
+            self.counters["user_lowcmd_frames"] += 1
+            self._user.set_command(q, dq, tau, kp, kd, enabled)
+            return True
 
     # --- streams ---------------------------------------------------------------------------------
 
@@ -575,7 +695,9 @@ class SimG1:
         """MotorState_.mode: 1 while a motor is enabled, as MotorCmd_.mode means it ("1:Enable, 0:Disable" in
         Unitree's low-level examples). The built-in controller keeps every motor enabled, damping and zero
         torque included (they command kp = 0, not a disabled driver); in debug mode each motor is what the
-        last rt/lowcmd frame asked, disabled until one arrives."""
+        last rt/lowcmd frame asked, disabled until one arrives; in user control, as the last rt/user_lowcmd frame."""
+        if self._uc.active:
+            return self._user.enabled.astype(np.uint8)
         if self._service:
             return _ALL_ENABLED
         return self._lowlevel.enabled.astype(np.uint8)
