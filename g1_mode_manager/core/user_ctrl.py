@@ -78,8 +78,8 @@ class UserCtrlConfig:
 
     switch_timeout_s: float = 1.0  # 7110 answered -> GetFsmId 1000 seen; 7111 answered -> another fsm seen
     poll_interval_s: float = 0.02  # GetFsmId while waiting for either
-    hold_kp: float = 80.0  # the hand-over / hold frame's stiffness, N m/rad
-    hold_kd: float = 2.0  # and damping, N m s/rad
+    hold_kp: float = 300.0  # the hand-over / hold frame's stiffness, N m/rad
+    hold_kd: float = 8.0  # and damping, N m s/rad
     silence: SilenceReaction = SilenceReaction.HAND_BACK
 
 

@@ -160,6 +160,7 @@ def test_silence_hands_back_to_walkrun_into_idle() -> None:
     rig.to(LO)
     outcome = rig.machine.hand_back_on_silence()
     assert outcome.success and rig.machine.mode is ID and "silent" in outcome.message
+    assert "silent" in rig.machine.status().last_error  # ~/mode says why LOW_LEVEL was left
     assert rig.robot.internal_ctrl_calls == [InternalCtrl.WALKRUN] and not rig.robot.damped
 
 

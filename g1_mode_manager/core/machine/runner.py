@@ -130,6 +130,8 @@ class TransitionRunner:
                 result, message = Result.OK, f"{source}->{target}: {rule.description}"
                 if shown:
                     message += f" ({shown})"
+                if rule.trigger is Trigger.SILENCE:  # not asked for by anyone: ~/mode must say why the mode changed
+                    state.last_error = message
                 if selected or rule.leaves_robot_limp:
                     message += f"; {ZERO_TORQUE_NOTE}"
             if self.user_ctrl is not None and Mode.LOW_LEVEL in (inflight.source, inflight.target) \

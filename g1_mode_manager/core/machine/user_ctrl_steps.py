@@ -13,7 +13,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.port import RobotError
@@ -48,7 +48,7 @@ class UserCtrlSteps:
             raise UserCtrlRefused("the high-level service is released (debug mode): user control needs it; request "
                                   "HIGH_LEVEL first, or use low_level_path: release")
         before = calls.get_fsm_id()
-        pose = self.port.joint_positions()
+        pose = self._measured_pose(calls)
         if pose is None:
             raise UserCtrlRefused("no measured pose (rt/lowstate not received): nothing to hold the robot at")
         hold = hold_frame(pose, self.config.hold_kp, self.config.hold_kd)
@@ -88,6 +88,14 @@ class UserCtrlSteps:
                                   f"{self.config.switch_timeout_s:g} s: SwitchToInternalCtrl(LAST) sent; {shown}")
         self.link.entered()
         return f"fsm {before} -> 1000 seen"
+
+    def _measured_pose(self, calls: RunPort) -> Sequence[float] | None:
+        """The joints' measured pose; rt/lowstate may have been subscribed only for this entry (an idle HIGH_LEVEL
+        does not receive it), so wait for its first sample, at most switch_timeout_s."""
+        deadline = self._clock() + self.config.switch_timeout_s
+        while (pose := self.port.joint_positions()) is None and self._clock() < deadline:
+            calls.sleep(self.config.poll_interval_s)
+        return pose
 
     # --- out of LOW_LEVEL --------------------------------------------------------------------------
     def hand_back(self, calls: RunPort, target: InternalCtrl) -> str:
