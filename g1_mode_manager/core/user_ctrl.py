@@ -117,6 +117,7 @@ class UserCtrlLink:
         self.live = False
         self.filler: JointFrame = DAMPING
         self.entered_at = float("-inf")  # when fsm 1000 was seen by the entry (silence counts from there)
+        self.left_at = float("-inf")  # when the robot was last seen out of user control by a verification
         self._switch_until = float("-inf")  # an accepted 7110 may still take effect until then
         #: Wakes whoever writes ``filler`` (the lowcmd relay's worker sleeps while it has nothing to send).
         self.wake: Callable[[], None] = lambda: None
@@ -160,9 +161,11 @@ class UserCtrlLink:
         """The robot was seen out of user control: clear ``live`` unless an accepted switch may still land.
         True if cleared."""
         with self._lock:
-            if self._clock() < self._switch_until:
+            now = self._clock()
+            if now < self._switch_until:
                 return False
             self.live = False
+            self.left_at = now
             return True
 
     def forget(self) -> None:

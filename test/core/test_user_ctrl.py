@@ -268,3 +268,20 @@ def test_roll_pitch_and_upright_limits() -> None:
     assert abs(p - 1.0) < 1e-3 and abs(r) < 1e-6
     assert upright((1.0, 0.8)) and not upright((1.01, 0.0)) and not upright((0.0, -0.81)) and not upright(None)
     assert USER_CTRL_FSM_ID == 1000
+
+
+def test_a_switch_landing_after_the_entry_gave_up_is_a_fault_damped_with_passive() -> None:
+    rig = Rig()
+    rig.to(HI)
+    rig.robot.switch_never_shows = True
+    assert rig.machine.request(LO).refused
+    assert not rig.link.live
+    rig.robot.user_ctrl = True  # the firmware did not cancel the accepted switch: it lands now
+    rig.machine.supervise(USER_CTRL_FSM_ID, 0.01)  # right after the hand-back was verified: no evidence yet
+    assert rig.machine.mode is HI
+    assert rig.clock is not None
+    rig.clock.advance(1.0)
+    rig.machine.supervise(USER_CTRL_FSM_ID, 0.01)
+    assert rig.machine.mode is FA and rig.wait_damp_confirmed()
+    assert rig.robot.internal_ctrl_calls[-1] is InternalCtrl.PASSIVE and rig.robot.damped
+    assert any("fsm 1000" in f for f in rig.machine.status().faults)

@@ -66,7 +66,7 @@ class ModeMachine:
             self.user_ctrl_link = UserCtrlLink(clock)
             steps = UserCtrlSteps(port, self.user_ctrl_link, user_ctrl, clock=clock)
             self._runner.user_ctrl = self._estop.user_ctrl = steps
-        self._runner.fault = self._fault.enter
+        self._runner.fault = self._supervisor.fault = self._fault.enter
 
     # --- what the node reads ---------------------------------------------------------------------
     @property

@@ -10,6 +10,8 @@ Called periodically by the node (about 10 Hz) with the last rt/sportmodestate:
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.machine.estop import Estop, verdict
@@ -33,6 +35,8 @@ class Supervisor:
         self._estop = estop
         self._port = port
         self._timing = timing
+        #: FAULT's entry (set by the facade): where a robot found under user control outside LOW_LEVEL goes.
+        self.fault: Callable[[tuple[str, ...]], bool] = lambda _faults: False
 
     def supervise(self, fsm_id: int | None, state_age_s: float | None) -> None:
         state = self._state
@@ -43,8 +47,26 @@ class Supervisor:
             return
         if mode in (Mode.EMERGENCY, Mode.FAULT):
             self._keep_damped(now, mode, fsm_id, state_age_s)
-        elif mode in (Mode.HIGH_LEVEL, Mode.LOW_LEVEL) and not transition:
+            return
+        if transition:
+            return
+        if mode in (Mode.IDLE, Mode.HIGH_LEVEL) and self._late_switch(fsm_id, state_age_s):
+            return
+        if mode in (Mode.HIGH_LEVEL, Mode.LOW_LEVEL):
             self._check_belief(now, mode)
+
+    def _late_switch(self, fsm_id: int | None, state_age_s: float | None) -> bool:
+        """user_ctrl path: fsm 1000 outside LOW_LEVEL is a SwitchToUserCtrl that took effect after the node gave
+        up on it (the firmware does not cancel an accepted switch): nobody commands the joints, so FAULT, whose
+        sequence damps with PASSIVE. True if FAULT was entered."""
+        user_ctrl = self._estop.user_ctrl
+        if user_ctrl is None or fsm_id != USER_CTRL_FSM_ID or state_age_s is None \
+                or state_age_s > self._timing.state_fresh_s:
+            return False
+        if self._state.clock() - state_age_s <= user_ctrl.link.left_at + STATE_SETTLE_S:
+            return False  # a sample sent before the hand-back that was just verified
+        user_ctrl.link.mark_live(DAMPING)
+        return self.fault(("user control outside LOW_LEVEL: the robot shows fsm 1000 (a switch that landed late)",))
 
     # --- EMERGENCY and FAULT ---------------------------------------------------------------------
     def _keep_damped(self, now: float, mode: Mode, fsm_id: int | None, state_age_s: float | None) -> None:
