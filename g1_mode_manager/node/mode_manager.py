@@ -226,6 +226,7 @@ class ModeManagerNode(Node):
         self._arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
         self._body.stop()
         self._supervisor.stop()
+        self._lowcmd.at_exit()  # user_ctrl: the robot handed back to its own controller while the hold still goes out
         for worker in self._workers:
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
         self._service_side.shutdown()

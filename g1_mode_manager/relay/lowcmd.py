@@ -89,6 +89,9 @@ class LowCmdRelay:
                 self._released_at_stop = target in (Mode.EMERGENCY, Mode.FAULT)
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
 
+    def at_exit(self) -> None:
+        """Before the node stops its workers: nothing to do here (a silent stream already left damping frames)."""
+
     def busy(self) -> bool:
         """In LOW_LEVEL (damping on silence, link loss, a hold, a released dead-man) and while damping after
         leaving it is due; otherwise the worker may sleep until woken (a mode change)."""

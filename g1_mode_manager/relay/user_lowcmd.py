@@ -59,6 +59,15 @@ class UserLowCmdRelay(LowCmdRelay):
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} {what} frames sent "
                          "on rt/user_lowcmd")
 
+    def at_exit(self) -> None:
+        """The node is stopping in LOW_LEVEL: hand the robot back now (as on silence), while the worker still writes
+        the hold; a robot left under user control would keep the last frame with nobody watching it."""
+        if self._gate.mode is not Mode.LOW_LEVEL:
+            return
+        self._uc.filler = self._hold_here()
+        outcome = self._hand_back()
+        self._events.log("warn" if outcome.success else "error", "lowcmd_exit", f"node stopping: {outcome.message}")
+
     def busy(self) -> bool:
         return self._uc.live or super().busy()
 

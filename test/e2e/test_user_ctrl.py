@@ -258,3 +258,23 @@ def test_firmware_without_user_control_is_refused_with_nothing_changed(shared_st
     assert not of_kind(ev, "state"), "the robot's state changed"
     frames = [e for _, e in _frames(ev, "user_lowcmd")]
     assert all(not e["ok"] and e["why"] == "not_user_ctrl" for e in frames)  # the hand-over frame, ignored
+
+
+def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    controller = HoldController(stack)
+    _enter_walking(stack)
+    _enter_user_ctrl(stack, controller)
+    _wait_sim(stack, 1.0)
+    t0 = time.monotonic()
+    code = stack.node.stop()
+    print(f"node exit {code} after {(time.monotonic() - t0) * 1000:.0f} ms")
+    controller.stop()
+    assert code == 0, stack.node.output()[-3000:]
+    _wait_sim(stack, 3.0)
+    status = stack.sim.get()
+    assert not status["user_ctrl"] and status["sport"]["fsm_id"] in STANDING_FSM_IDS, status["sport"]
+    ev = stack.record.events()
+    back = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= t0]
+    assert back and json.loads(back[0]["p"])["data"] == InternalCtrl.WALKRUN
+    assert _lowest(ev, t0) > STANDING_Z_M
