@@ -6,11 +6,13 @@ of the machine, so a test can compare it with the moment it sent something). Kin
 * ``req``: an RPC request on arrival: ``svc``, ``api``, ``p`` (JSON parameter), ``noreply``. ``t`` is when
   the sim's Cyclone delivered it (see arrivals.py), so lines are not always in ``t`` order.
 * ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
-* ``frame``: an rt/lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
+* ``frame``: an rt/lowcmd, rt/user_lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
   ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok",
-  "none" = left 0, "wrong"; rt/lowcmd needs "ok", rt/arm_sdk takes all three); ``t`` as for ``req``.
+  "none" = left 0, "wrong"; rt/lowcmd and rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` as for
+  ``req``.
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
-  ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``.
+  ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``. fsm 1000 is user control; its
+  ``state`` line is written before the first rt/user_lowcmd frame it lets through.
 * ``reset``: the sim was reset to its boot state (a sim-only status call).
 * ``odom``: every rt/lf/odommodestate sample (20 Hz of sim time while a high-level service is active): ``st``
   (sim time, the sample's stamp), the estimate as published (float32, rounded to 1e-6): ``x``, ``y`` (m),
