@@ -278,3 +278,25 @@ def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory
     back = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= t0]
     assert back and json.loads(back[0]["p"])["data"] == InternalCtrl.WALKRUN
     assert _lowest(ev, t0) > STANDING_Z_M
+
+
+def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    controller = HoldController(stack)
+    modes = stack.modes()
+    _enter_walking(stack)
+    _enter_user_ctrl(stack, controller)
+    _wait_sim(stack, 1.0)
+    t0 = time.monotonic()
+    stack.set_faults({"remote_keys": ["L2", "B"]})  # the firmware ignores the remote in user control; the node not
+    assert wait_until(lambda: modes and modes[-1].name == "EMERGENCY" and modes[-1].damp_confirmed, 15.0), \
+        [(m.name, m.damp_confirmed) for m in modes[-3:]]
+    controller.stop()
+    stack.set_faults({})
+    ev = [e for e in stack.record.events() if e["t"] >= t0]
+    damping = [e for _, e in _frames(ev, "user_lowcmd") if e["kp_max"] == 0.0]
+    passive = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL)]
+    assert damping and passive and json.loads(passive[0]["p"])["data"] == InternalCtrl.PASSIVE
+    print(f"L2+B: first damping frame {(damping[0]['t'] - t0) * 1000:.0f} ms, PASSIVE {(passive[0]['t'] - t0) * 1000:.0f} "
+          "ms after the keys were set")
+    assert stack.sim.get()["sport"]["fsm_id"] == 1 and not stack.sim.get()["user_ctrl"]
