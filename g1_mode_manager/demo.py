@@ -2,7 +2,8 @@
 yours to drive.
 
 Starts the MuJoCo sim bridge, the mode_manager node and the console (a web page) as three processes on
-loopback, walks the robot through HIGH_LEVEL -> Start -> cmd_vel -> E-STOP while printing what happens, then
+loopback, walks the robot through HIGH_LEVEL -> Start -> cmd_vel -> LOW_LEVEL by user control -> handed back ->
+walking again -> E-STOP (``--release``: LOW_LEVEL by ReleaseMode, limp) while printing what happens, then
 keeps them running for the console's page and `g1ctl` in another terminal until Ctrl-C. The console is only a
 client of the node: if it cannot start (its port taken), the rest runs on without it.
 """
@@ -96,8 +97,9 @@ class _ModePrinter:
         print(f"  ~/mode: {msg.name}{target}", flush=True)
 
 
-def scripted_tour(client: ManagerClient) -> bool:
-    """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, E-STOP. Returns True if all went as expected."""
+def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
+    """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, LOW_LEVEL (by user control, or ``release``), E-STOP.
+    Returns True if all went as expected."""
     odom = _odom_xy(client)
     client.on_mode(_ModePrinter())
     steps_ok = True
@@ -129,13 +131,40 @@ def scripted_tour(client: ManagerClient) -> bool:
         step("cmd_vel 0.5 m/s for 4 s", dist > 1.0, f"walked {dist:.2f} m, then {drift:.2f} m more after cmd_vel stopped")
     else:
         step("cmd_vel 0.5 m/s for 4 s", False, "no /g1_sim_bridge/odom from the sim bridge")
-    r = client.set_mode("low_level")
-    step("set_mode low_level (robot goes limp)", r.success, r.message)
-    r = client.estop()
-    step("E-STOP from LOW_LEVEL (re-select service, then Damp)", r.success, r.message)
+    if release:
+        r = client.set_mode("low_level")
+        step("set_mode low_level (release path: robot goes limp)", r.success, r.message)
+        r = client.estop()
+        step("E-STOP from LOW_LEVEL (re-select service, then Damp)", r.success, r.message)
+    else:
+        _user_ctrl_and_back(client, step, odom)
+        r = client.estop()
+        step("E-STOP (Damp verified)", r.success, r.message)
     r = client.set_mode("idle")
     step("set_mode idle after E-STOP is refused", not r.success, r.message)
     return steps_ok
+
+
+def _user_ctrl_and_back(client: ManagerClient, step, odom) -> None:
+    """LOW_LEVEL by user control with no controller: the robot held, then handed back to its own controller when
+    ~/lowcmd stays silent (IDLE, standing), then HIGH_LEVEL and walking again."""
+    r = client.set_mode("low_level")
+    step("set_mode low_level (user control: hand-over frame, fsm 1000 seen; robot held)", r.success, r.message)
+    time.sleep(1.0)  # no ~/lowcmd: after lowcmd_timeout_s the node hands the robot back
+    mode = client.wait_for_mode()
+    name = mode.name if mode is not None else "?"
+    why = mode.last_error if mode is not None else ""
+    step("no ~/lowcmd: robot handed back to its walk-run controller, standing", name == "IDLE", f"{name}: {why}")
+    r = client.set_mode("high_level")
+    step("set_mode high_level (the robot never went limp)", r.success, r.message)
+    start = odom()
+    t_end = time.monotonic() + 3.0
+    while time.monotonic() < t_end:
+        client.drive(0.5)
+        time.sleep(0.05)
+    moved = odom()
+    if start and moved:
+        step("walking again after user control", math.dist(start, moved) > 0.5, f"walked {math.dist(start, moved):.2f} m")
 
 
 def _start_console(py: str, port: int, children: list[Child]) -> str | None:
@@ -169,6 +198,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--exit", action="store_true", help="stop after the tour instead of waiting for Ctrl-C")
     parser.add_argument("--console-port", type=int, default=8080,
                         help="port of the operator console on 127.0.0.1 (0: any free port; -1: no console)")
+    parser.add_argument("--release", action="store_true",
+                        help="LOW_LEVEL by ReleaseMode (the robot limp) instead of user control")
     args = parser.parse_args(argv)
     default_discovery_to_localhost()
     signal.signal(signal.SIGTERM, _interrupt)
@@ -183,7 +214,8 @@ def main(argv: list[str] | None = None) -> int:
         # as the launch files run it: odometry on, on Fast DDS whatever the shell exports (node/one_dds_stack.py)
         node = Child("node", [py, "-u", "-m", "g1_mode_manager.node.main", "--ros-args",
                               "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo",
-                              "-p", "odom_rate_hz:=20.0"], "ready in",
+                              "-p", "odom_rate_hz:=20.0",
+                              "-p", f"low_level_path:={'release' if args.release else 'user_ctrl'}"], "ready in",
                      env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})  # fmt: skip
         children.append(node)
         node.wait_ready(30.0)
@@ -191,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
         ok = True
         with ManagerClient() as client:
             if not args.no_tour:
-                ok = scripted_tour(client)
+                ok = scripted_tour(client, release=args.release)
         print("\nThe simulated G1 and the mode manager are running. In another terminal:\n"
               "  .venv/bin/g1ctl mode --watch\n  .venv/bin/g1ctl set-mode high_level\n  .venv/bin/g1ctl loco start\n"
               "  .venv/bin/g1ctl drive\n  .venv/bin/g1ctl estop\n", flush=True)

@@ -102,6 +102,21 @@ class RunPort:
             self._port.release_mode(timeout_s=self._timeout(self._select_timeout_s, "ReleaseMode"))
         self._check("release_mode")
 
+    def switch_to_user_ctrl(self) -> None:
+        """SwitchToUserCtrl (user_ctrl path): robot-changing, so registered as in flight."""
+        self._check("switch_to_user_ctrl")
+        with self._changing_call(self._preempted):
+            self._port.switch_to_user_ctrl(timeout_s=self._timeout(self._call_timeout_s, "SwitchToUserCtrl"))  # type: ignore[attr-defined]
+        self._check("switch_to_user_ctrl")
+
+    def switch_to_internal_ctrl(self, target: int) -> None:
+        """SwitchToInternalCtrl(target) (user_ctrl path); in flight like SwitchToUserCtrl."""
+        self._check("switch_to_internal_ctrl")
+        with self._changing_call(self._preempted):
+            self._port.switch_to_internal_ctrl(target, timeout_s=self._timeout(  # type: ignore[attr-defined]
+                self._call_timeout_s, "SwitchToInternalCtrl"))
+        self._check("switch_to_internal_ctrl")
+
     def damp(self) -> None:
         self._check("damp")
         self._port.damp(timeout_s=self._timeout(self._call_timeout_s, "Damp"))

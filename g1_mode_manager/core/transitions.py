@@ -22,6 +22,10 @@ class Step(Enum):
     RELEASE_SERVICE = "release_service"  # ReleaseMode until CheckMode reports "" (official low-level entry)
     ESTOP = "estop"  # DampNoReply, ensure the service is active, Damp (see ModeMachine.estop)
     PROTECTIVE_STOP = "protective_stop"  # a body check tripped: the e-stop's damping path, into FAULT
+    # the user_ctrl path (core/user_ctrl.py): the robot is held by a controller throughout
+    USER_CTRL = "user_ctrl"  # hand-over frame, SwitchToUserCtrl, GetFsmId 1000 seen
+    HAND_BACK_LAST = "hand_back_last"  # SwitchToInternalCtrl(LAST), then another fsm seen
+    HAND_BACK_WALKRUN = "hand_back_walkrun"  # upright: SwitchToInternalCtrl(WALKRUN), a standing fsm seen
 
 
 class Trigger(Enum):
@@ -30,6 +34,7 @@ class Trigger(Enum):
     REQUEST = "request"  # set_mode (and the e-stop, which every mode allows)
     BODY_CHECK = "body_check"  # a body check's fault reaction
     CLEAR_FAULT = "clear_fault"  # an operator's explicit clear, once every check is clear
+    SILENCE = "silence"  # ~/lowcmd silent on the user_ctrl path: the robot handed back to its own controller
 
 
 @dataclass(frozen=True)
@@ -75,6 +80,24 @@ TRANSITIONS: tuple[Transition, ...] = (
 
 TABLE: dict[tuple[Mode, Mode], Transition] = {(t.source, t.target): t for t in TRANSITIONS}
 
+_USER, _LAST, _WALKRUN = Step.USER_CTRL, Step.HAND_BACK_LAST, Step.HAND_BACK_WALKRUN
+_SILENCE = Trigger.SILENCE
+
+#: low_level_path user_ctrl: the rules with LOW_LEVEL at either end, instead of the release path's.
+# fmt: off
+USER_CTRL_TRANSITIONS: tuple[Transition, ...] = (
+    Transition(_U, _L, (_CONNECT, _USER), "robot under user control (fsm 1000 seen); ~/lowcmd -> rt/user_lowcmd"),
+    Transition(_I, _L, (_USER,),          "robot under user control (fsm 1000 seen); ~/lowcmd -> rt/user_lowcmd"),
+    Transition(_H, _L, (_USER,),          "robot under user control (fsm 1000 seen); ~/lowcmd -> rt/user_lowcmd"),
+    Transition(_L, _I, (_LAST,),          "robot handed back to the controller it had before; nothing is forwarded"),
+    Transition(_L, _H, (_WALKRUN,),       "robot handed back to its walk-run controller, standing"),
+)
+USER_CTRL_SILENCE = Transition(_L, _I, (_WALKRUN,), "~/lowcmd silent: robot handed back to its walk-run controller, "
+                               "standing; nothing is forwarded", trigger=_SILENCE)
+USER_CTRL_TABLE: dict[tuple[Mode, Mode], Transition] = {**TABLE, **{(t.source, t.target): t
+                                                                   for t in USER_CTRL_TRANSITIONS}}
+# fmt: on
+
 #: Requesting the current mode after a robot/mode mismatch re-runs the mode's entry, as from IDLE.
 # fmt: off
 REENTRIES: dict[Mode, Transition] = {
@@ -82,16 +105,21 @@ REENTRIES: dict[Mode, Transition] = {
     _H: Transition(_H, _H, (_ACTIVE,),  "high-level service active"),
     _L: Transition(_L, _L, (_RELEASE,), "high-level service released, robot limp"),
 }
+USER_CTRL_REENTRY = Transition(_L, _L, (_USER,), "robot under user control again (fsm 1000 seen)")
 # fmt: on
 
 
-def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST) -> Transition | str:
+def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST, *,
+           user_ctrl: bool = False) -> Transition | str:  # fmt: skip
     """The legal transition from source to target for this trigger, or the reason it is refused.
 
-    Every (source, target, trigger) is either in the table or matched by an explicit refusal below;
-    one matched by neither is a bug in this module and raises AssertionError.
+    ``user_ctrl``: the low_level_path user_ctrl's rules for LOW_LEVEL. Every (source, target, trigger) is either
+    in the table or matched by an explicit refusal below; one matched by neither is a bug in this module and
+    raises AssertionError.
     """
-    legal = TABLE.get((source, target))
+    if user_ctrl and (source, target, trigger) == (_L, _I, _SILENCE):
+        return USER_CTRL_SILENCE
+    legal = (USER_CTRL_TABLE if user_ctrl else TABLE).get((source, target))
     if legal is not None and legal.trigger is trigger:
         return legal
     match (source, target, trigger):
@@ -109,6 +137,10 @@ def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST) -> Tr
             return "not connected yet: no body check acts before the first transition"
         case (_, _, Trigger.BODY_CHECK):
             return f"a body check enters FAULT only, not {target.name}"
+        case (Mode.LOW_LEVEL, Mode.IDLE, Trigger.SILENCE):
+            return "a silent ~/lowcmd hands the robot back only on low_level_path user_ctrl"
+        case (_, _, Trigger.SILENCE):
+            return f"a silent ~/lowcmd hands the robot back from LOW_LEVEL to IDLE only, not {source.name} -> {target.name}"
         case (s, t, _) if s is t:
             return f"already in {s.name}; nothing to do"
         case (_, Mode.UNINITIALIZED, _):
@@ -116,8 +148,9 @@ def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST) -> Tr
     raise AssertionError(f"transition table has no rule for {source.name} -> {target.name} by {trigger.value}")
 
 
-def rule_for(source: Mode, target: Mode, *, mismatch: bool) -> Transition | str:
+def rule_for(source: Mode, target: Mode, *, mismatch: bool, trigger: Trigger = Trigger.REQUEST,
+             user_ctrl: bool = False) -> Transition | str:  # fmt: skip
     """``lookup``, except that after a robot/mode mismatch the current mode's entry runs again."""
-    if mismatch and source is target and source in REENTRIES:
-        return REENTRIES[source]
-    return lookup(source, target)
+    if mismatch and source is target and source in REENTRIES and trigger is Trigger.REQUEST:
+        return USER_CTRL_REENTRY if user_ctrl and source is Mode.LOW_LEVEL else REENTRIES[source]
+    return lookup(source, target, trigger, user_ctrl=user_ctrl)

@@ -54,6 +54,7 @@ class ModeManagerNode(Node):
         p.arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
         p.body.stop()
         p.supervisor.stop()
+        p.lowcmd.at_exit()  # user_ctrl: the robot handed back to its own controller while the hold still goes out
         for worker in (p.cmd_vel, p.arm_worker, p.lowcmd_worker):
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking
         e.services.shutdown()

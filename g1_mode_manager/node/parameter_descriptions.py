@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
 
+from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
 from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S
 
 DESCRIPTIONS: dict[str, str] = {
@@ -93,6 +94,18 @@ DESCRIPTIONS: dict[str, str] = {
     "(the combination the built-in controller damps on); '' = off.",
     "lowcmd_deadman_key": "LOW_LEVEL dead-man: user lowcmd passes only while this remote key (or 'A+B') is held, "
     "damping frames otherwise; '' = off.",
+    "low_level_path": "How LOW_LEVEL is entered and left. 'user_ctrl' (newer firmware): a hand-over frame holds the "
+    "measured pose, SwitchToUserCtrl, fsm 1000 seen before a user frame passes; ~/lowcmd -> rt/user_lowcmd; exits hand "
+    "the robot back to its own controller (never limp). 'release': ReleaseMode, ~/lowcmd -> rt/lowcmd, the robot limp "
+    "on entry and exit. Firmware without user control refuses 'user_ctrl' with nothing changed. Read at start.",
+    "user_ctrl_switch_timeout_s": "user_ctrl: after SwitchToUserCtrl answered, GetFsmId must show 1000 within this "
+    "(else SwitchToInternalCtrl LAST and refused); after SwitchToInternalCtrl, another fsm within this, s.",
+    "user_ctrl_hold_kp": "user_ctrl: stiffness of the hand-over / hold frame (every joint at its measured pose) on "
+    "rt/user_lowcmd, N m/rad.",
+    "user_ctrl_hold_kd": "user_ctrl: damping of the hand-over / hold frame, N m s/rad.",
+    "user_ctrl_silence": "user_ctrl: what no ~/lowcmd for lowcmd_timeout_s does. 'hand_back': SwitchToInternalCtrl "
+    "WALKRUN when upright (|roll| <= 1.0, |pitch| <= 0.8 rad) and LOW_LEVEL -> IDLE, PASSIVE and FAULT when not; "
+    "'damp': damping frames on rt/user_lowcmd, LOW_LEVEL kept.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }
@@ -107,6 +120,9 @@ RANGES: dict[str, tuple[float, float]] = {
     "battery_critical_pct": (0.0, 100.0),
     "body_check_rate_hz": (1.0, 500.0),
     "body_check_slow_rate_hz": (1.0, 500.0),
+    "user_ctrl_switch_timeout_s": (0.05, 10.0),
+    "user_ctrl_hold_kp": (0.0, MAX_KP),
+    "user_ctrl_hold_kd": (0.0, MAX_KD),
 }
 
 

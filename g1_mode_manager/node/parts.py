@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus
@@ -25,6 +26,7 @@ from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
+from g1_mode_manager.relay.user_lowcmd import UserLowCmdRelay
 from g1_mode_manager.relay.walk_judge import WalkJudge
 
 
@@ -61,7 +63,8 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
     s = settings
     events, on_error = log.events, log.worker_error
     machine = ModeMachine(port, release_timeout_s=s.release_timeout_s, select_timeout_s=s.select_timeout_s,
-                          estop_timing=s.estop_timing(), on_record=log.record, on_change=on_change, on_alarm=log.alarm)
+                          estop_timing=s.estop_timing(), on_record=log.record, on_change=on_change, on_alarm=log.alarm,
+                          user_ctrl=s.user_ctrl_config())  # None: low_level_path release
     link = LinkHealth(port, machine, s.link_timeout_s)
     walk = WalkJudge(s.not_walking_after_s)
     cmd_vel = CmdVelRelay(port, machine, link, events, limits=s.velocity_limits(), timeout_s=s.cmd_vel_timeout_s,
@@ -72,9 +75,7 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
     arm = ArmRelay(port, machine, link, events, ramp_time_s=s.arm_ramp_time_s, silence_timeout_s=s.arm_cmd_timeout_s,
                    kp=s.arm_kp, kd=s.arm_kd, period_s=1.0 / s.arm_rate_hz)
     body = BodySupervision(port, machine, events, s, on_error)
-    lowcmd = LowCmdRelay(port, machine, link, events, silence_timeout_s=s.lowcmd_timeout_s,
-                         exit_damping_s=s.lowcmd_exit_damping_s,
-                         service_active=lambda: machine.status().service_active, deadman=body.watch.deadman_held)
+    lowcmd = _lowcmd_relay(s, port, machine, link, events, deadman=body.watch.deadman_held)
     loco = LocoCommands(port, machine, outcome_timeout_s=s.loco_outcome_timeout_s,
                         motion_timeout_s=s.loco_motion_timeout_s)
     # lowcmd first: its damping frames are the urgent ones; loco last: it only wakes waiting answers
@@ -100,4 +101,19 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
         body=body, head_led=head_led, head_led_worker=head_led_worker,
     )
     machine.add_leave_listener(parts.wake_relay_workers)  # after the relays': exit damping is due now
+    if machine.user_ctrl_link is not None:  # the hand-over frames start while the worker may sleep
+        machine.user_ctrl_link.wake = parts.lowcmd_worker.wake
     return parts
+
+
+def _lowcmd_relay(s: Settings, port: RobotPort, machine: ModeMachine, link: LinkHealth, events: RelayEvents, *,
+                  deadman: Callable[[], bool]) -> LowCmdRelay:
+    """~/lowcmd -> rt/lowcmd (low_level_path release) or rt/user_lowcmd (user_ctrl)."""
+    kwargs = dict(silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
+                  service_active=lambda: machine.status().service_active, deadman=deadman)
+    config, user_ctrl = s.user_ctrl_config(), machine.user_ctrl_link
+    if config is None or user_ctrl is None:
+        return LowCmdRelay(port, machine, link, events, **kwargs)
+    return UserLowCmdRelay(port, machine, link, events, user_ctrl=user_ctrl, silence=config.silence,
+                           hand_back=machine.hand_back_on_silence, hold_kp=config.hold_kp, hold_kd=config.hold_kd,
+                           **kwargs)

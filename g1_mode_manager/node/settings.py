@@ -16,6 +16,7 @@ from rclpy.node import Node
 from g1_mode_manager.core.body.checks import BY_NAME as BODY_CHECKS
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.user_ctrl import LowLevelPath, SilenceReaction, UserCtrlConfig
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
 from g1_mode_manager.node.parameter_descriptions import descriptor
@@ -95,11 +96,24 @@ class Settings:
     fault_clear_hold_s: float = 2.0
     remote_estop_keys: str = "L2+B"
     lowcmd_deadman_key: str = ""
+    # --- LOW_LEVEL's two paths (core/user_ctrl.py, docs/user_control.md) ---
+    low_level_path: str = LowLevelPath.USER_CTRL.value
+    user_ctrl_switch_timeout_s: float = UserCtrlConfig.switch_timeout_s
+    user_ctrl_hold_kp: float = UserCtrlConfig.hold_kp
+    user_ctrl_hold_kd: float = UserCtrlConfig.hold_kd
+    user_ctrl_silence: str = UserCtrlConfig.silence.value
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
                            total_s=self.estop_timeout_s, verify_period_s=self.estop_verify_period_s,
                            belief_period_s=self.belief_check_period_s, state_fresh_s=self.link_timeout_s)
+
+    def user_ctrl_config(self) -> UserCtrlConfig | None:
+        """The user_ctrl path's settings, or None on the release path."""
+        if LowLevelPath(self.low_level_path) is LowLevelPath.RELEASE:
+            return None
+        return UserCtrlConfig(switch_timeout_s=self.user_ctrl_switch_timeout_s, hold_kp=self.user_ctrl_hold_kp,
+                              hold_kd=self.user_ctrl_hold_kd, silence=SilenceReaction(self.user_ctrl_silence))
 
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
@@ -146,6 +160,9 @@ def declare_settings(node: Node) -> Settings:
             LedLook.parse(values[name])
         except ValueError as exc:
             raise ValueError(f"parameter {name}: {exc}") from None
+    for name, choices in (("low_level_path", LowLevelPath), ("user_ctrl_silence", SilenceReaction)):
+        if values[name] not in {c.value for c in choices}:
+            raise ValueError(f"parameter {name}: {values[name]!r} is none of {', '.join(c.value for c in choices)}")
     for name in ("remote_estop_keys", "lowcmd_deadman_key"):
         try:
             parse_keys(values[name])

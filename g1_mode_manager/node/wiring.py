@@ -30,7 +30,7 @@ def unitree_port(settings: Settings) -> RobotPort:
     from g1_mode_manager.sdk.robot import UnitreeRobot
 
     return UnitreeRobot(settings.dds_domain, settings.network_interface, rpc_timeout_s=settings.rpc_timeout_s,
-                        mode_timeout_s=settings.select_timeout_s)
+                        mode_timeout_s=settings.select_timeout_s, user_ctrl=settings.user_ctrl_config() is not None)
 
 
 class ChangeListeners:

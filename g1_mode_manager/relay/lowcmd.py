@@ -11,7 +11,7 @@ from g1_mode_manager.core import modes
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotError, RobotPort
+from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
@@ -88,6 +88,9 @@ class LowCmdRelay:
                 self._released_at_stop = target in (Mode.EMERGENCY, Mode.FAULT)
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
 
+    def at_exit(self) -> None:
+        """Before the node stops its workers: nothing to do here (a silent stream already left damping frames)."""
+
     def busy(self) -> bool:
         """In LOW_LEVEL (damping on silence, link loss, a hold, a released dead-man) and while damping after
         leaving it is due; otherwise the worker may sleep until woken (a mode change)."""
@@ -129,9 +132,13 @@ class LowCmdRelay:
         self._events.log("warn", "lowcmd_dropped", f"lowcmd dropped: {why}, joint commands pass only in LOW_LEVEL")
         return why
 
+    def _send(self, frame: Sequence[MotorCommand]) -> None:
+        """The release path's topic: rt/lowcmd (the robot in debug mode)."""
+        self._port.write_lowcmd(frame)
+
     def _write(self, frame: JointFrame, counter: str) -> str | None:
         try:
-            self._port.write_lowcmd(frame)
+            self._send(frame)
         except RobotError as exc:
             self._events.count("lowcmd_write_failures")
             self._events.log("error", "lowcmd_write", f"lowcmd write failed: {exc}")

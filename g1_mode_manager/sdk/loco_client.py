@@ -10,7 +10,7 @@ import json
 import math
 
 from g1_mode_manager.protocol import api_ids as api
-from g1_mode_manager.protocol.fsm import SPEED_MODE_MAX_SPEED, BalanceMode, FsmId
+from g1_mode_manager.protocol.fsm import SPEED_MODE_MAX_SPEED, BalanceMode, FsmId, InternalCtrl
 from g1_mode_manager.sdk.rpc_client import PendingCall, RpcClient, parse_number
 
 #: The e-stop's first packet's parameter, encoded once.
@@ -89,6 +89,16 @@ class LocoClient(RpcClient):
         if int(mode) not in SPEED_MODE_MAX_SPEED:
             raise ValueError(f"SetSpeedMode: mode must be one of {sorted(SPEED_MODE_MAX_SPEED)}, got {mode!r}")
         self.call("SetSpeedMode", api.LOCO_SET_SPEED_MODE, {"data": int(mode)}, timeout_s=timeout_s)
+
+    def switch_to_user_ctrl(self, *, timeout_s: float | None = None) -> None:
+        """SwitchToUserCtrl (7110, newer firmware): the joints then follow rt/user_lowcmd. Raises RobotError with
+        the robot's code (3203 where the firmware lacks it)."""
+        self.call("SwitchToUserCtrl", api.LOCO_SWITCH_TO_USER_CTRL, {"data": False}, timeout_s=timeout_s)
+
+    def switch_to_internal_ctrl(self, target: InternalCtrl, *, timeout_s: float | None = None) -> None:
+        """SwitchToInternalCtrl (7111): LAST, PASSIVE (damping) or WALKRUN takes the robot back."""
+        self.call("SwitchToInternalCtrl", api.LOCO_SWITCH_TO_INTERNAL_CTRL, {"data": int(InternalCtrl(target))},
+                  timeout_s=timeout_s)
 
     # --- high-level helpers, as the SDK's LocoClient names them --------------------------------------
     def damp(self, *, timeout_s: float | None = None) -> None:

@@ -16,9 +16,11 @@ from collections.abc import Callable, Sequence
 from typing import TypeVar
 
 from g1_mode_manager.core.port import MotorCommand, OdomSample, PendingReply, RobotError, SportState, StateSample
+from g1_mode_manager.core.user_ctrl import roll_pitch
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
 from g1_mode_manager.protocol.dds import init_channels
+from g1_mode_manager.protocol.fsm import InternalCtrl
 from g1_mode_manager.protocol.idl import SportModeState_
 from g1_mode_manager.protocol.lowstate_fields import decode_body_fields
 from g1_mode_manager.sdk.arm_sdk import ArmSdkWriter
@@ -34,6 +36,8 @@ _log = logging.getLogger(__name__)
 P = TypeVar("P")
 #: A rt/lowstate sample younger than this makes reading rt/lf/lowstate (20 Hz) pointless for the body checks, s.
 FRESH_STATE_S = 0.01
+#: The attitude that decides WALKRUN or PASSIVE for a hand-back comes from a sample no older than this, s.
+ATTITUDE_FRESH_S = 0.1
 
 
 class UnitreeRobot:
@@ -44,7 +48,7 @@ class UnitreeRobot:
     """
 
     def __init__(self, domain: int, interface: str, rpc_timeout_s: float = 1.0, *, mode_timeout_s: float = 5.0,
-                 ready_budget_s: float = 3.0) -> None:  # fmt: skip
+                 ready_budget_s: float = 3.0, user_ctrl: bool = False) -> None:  # fmt: skip
         if not rpc_timeout_s > 0 or not mode_timeout_s > 0:
             raise ValueError("timeouts must be > 0")
         self.domain = int(domain)
@@ -58,6 +62,10 @@ class UnitreeRobot:
         self._switcher: MotionSwitcherClient | None = None
         self._arm: ArmSdkWriter | None = None
         self._lowcmd: LowCmdWriter | None = None
+        #: rt/user_lowcmd (low_level_path user_ctrl): created at connect, so the sim or robot has matched it before
+        #: the first hand-over frame, which must not be lost to discovery.
+        self._user_ctrl = bool(user_ctrl)
+        self._user_lowcmd: LowCmdWriter | None = None
         self._lowstate: LowStateReader | None = None
         self._lf_lowstate: LowStateReader | None = None  # always received: the body checks' cheap stream
         self._battery: BatteryReader | None = None
@@ -97,6 +105,8 @@ class UnitreeRobot:
                 self._switcher = MotionSwitcherClient(self.mode_timeout_s)
                 self._arm = ArmSdkWriter()
                 self._lowcmd = LowCmdWriter(self._lowstate_mode_machine)
+                if self._user_ctrl:
+                    self._user_lowcmd = LowCmdWriter(self._lowstate_mode_machine, topics.USER_LOWCMD)
                 self.create_time_s = time.monotonic() - start
             try:
                 self._switcher.wait_ready(self.ready_budget_s)
@@ -190,6 +200,23 @@ class UnitreeRobot:
 
     def set_arm_task(self, task_id: int) -> None:
         self.loco.set_arm_task(task_id)
+
+    # --- user control (core.user_ctrl.UserCtrlPort) ---------------------------------------------------
+    def switch_to_user_ctrl(self, timeout_s: float | None = None) -> None:
+        self.loco.switch_to_user_ctrl(timeout_s=timeout_s)
+
+    def switch_to_internal_ctrl(self, target: InternalCtrl, timeout_s: float | None = None) -> None:
+        self.loco.switch_to_internal_ctrl(target, timeout_s=timeout_s)
+
+    def write_user_lowcmd(self, commands: Sequence[MotorCommand]) -> None:
+        self._need(self._user_lowcmd, "user_lowcmd").write(commands)
+
+    def attitude(self) -> tuple[float, float] | None:
+        """(roll, pitch) from the newest state sample no older than ATTITUDE_FRESH_S; None without one."""
+        sample = self.state_sample()
+        if sample is None or sample.age_s > ATTITUDE_FRESH_S:
+            return None
+        return roll_pitch(*decode_body_fields(sample.data).quaternion)
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self.loco.set_velocity(vx, vy, wz, duration_s)
@@ -285,7 +312,7 @@ class UnitreeRobot:
             with self._voice_lock:
                 voice = self._voice
             for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._odom, self._arm, self._lowcmd,
-                         self._loco, self._switcher, voice):  # fmt: skip
+                         self._user_lowcmd, self._loco, self._switcher, voice):  # fmt: skip
                 if part is not None:
                     try:
                         part.close()

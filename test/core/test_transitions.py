@@ -16,7 +16,8 @@ LEGAL_REQUESTS = ({(UN, ID), (UN, HI), (UN, LO), (ID, HI), (ID, LO), (HI, ID), (
 LEGAL_BODY_CHECK = {(ID, FA), (HI, FA), (LO, FA)}
 LEGAL_CLEAR = {(FA, ID)}
 LEGAL = LEGAL_REQUESTS | LEGAL_BODY_CHECK | LEGAL_CLEAR
-BY_TRIGGER = {Trigger.REQUEST: LEGAL_REQUESTS, Trigger.BODY_CHECK: LEGAL_BODY_CHECK, Trigger.CLEAR_FAULT: LEGAL_CLEAR}
+BY_TRIGGER = {Trigger.REQUEST: LEGAL_REQUESTS, Trigger.BODY_CHECK: LEGAL_BODY_CHECK, Trigger.CLEAR_FAULT: LEGAL_CLEAR,
+              Trigger.SILENCE: set()}  # a silence hand-back exists on the user_ctrl path only
 
 ALL_PAIRS = list(itertools.product(Mode, Mode))
 
@@ -97,3 +98,18 @@ def test_fault_is_entered_only_by_a_body_check_and_left_only_by_clear_or_estop()
     assert isinstance(lookup(FA, EM), Transition)
     assert "nothing leaves EMERGENCY" in str(lookup(EM, FA, Trigger.BODY_CHECK))
     assert "not connected" in str(lookup(UN, FA, Trigger.BODY_CHECK))
+
+
+@pytest.mark.parametrize(("source", "target"), ALL_PAIRS, ids=lambda m: m.name)
+@pytest.mark.parametrize("trigger", list(Trigger), ids=lambda t: t.value)
+def test_the_user_ctrl_path_has_the_same_pairs_plus_the_silence_hand_back(source: Mode, target: Mode,
+                                                                           trigger: Trigger) -> None:  # fmt: skip
+    rule = lookup(source, target, trigger, user_ctrl=True)
+    legal = BY_TRIGGER[trigger] | ({(LO, ID)} if trigger is Trigger.SILENCE else set())
+    if (source, target) in legal:
+        assert isinstance(rule, Transition) and (rule.source, rule.target) == (source, target)
+        if LO in (source, target) and target not in (EM, FA):  # no ReleaseMode, no SelectMode: never limp
+            assert Step.RELEASE_SERVICE not in rule.steps and Step.ENSURE_SERVICE_ACTIVE not in rule.steps
+            assert not rule.leaves_robot_limp
+    else:
+        assert isinstance(rule, str) and rule.strip()

@@ -21,7 +21,8 @@ from g1_mode_manager.protocol import api_ids
 ACTIVE = api_ids.HIGH_LEVEL_SERVICE_NAME
 RELEASED = ""
 
-CALL_NAMES = ("connect", "check_mode", "select_mode", "release_mode", "damp", "damp_no_reply", "get_fsm_id")
+CALL_NAMES = ("connect", "check_mode", "select_mode", "release_mode", "damp", "damp_no_reply", "get_fsm_id",
+              "switch_to_user_ctrl", "switch_to_internal_ctrl")  # the last two: fakes.fake_user_ctrl
 
 
 @dataclass

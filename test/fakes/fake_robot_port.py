@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from fakes.fake_robot import FakeRobot
+from fakes.fake_user_ctrl import UserCtrlRobot
 from g1_mode_manager.core.port import MotorCommand, OdomSample, RobotError, SportState, StateSample, VoicePort
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.lowstate_fields import decode_body_fields
@@ -40,7 +40,7 @@ class FakeReply:
             raise RobotError(self._name, self._code, "injected")
 
 
-class FakeRobotPort(FakeRobot):
+class FakeRobotPort(UserCtrlRobot):
     """Records every stream call with its time; state (ages, fsm) is set by the test."""
 
     def __init__(self, *args, **kwargs) -> None:
@@ -136,6 +136,13 @@ class FakeRobotPort(FakeRobot):
         if self.lowstate_age is None:
             raise RobotError("write_lowcmd", api_ids.ERR_UNKNOWN, "no rt/lowstate yet: mode_machine unknown")
         self._record("write_lowcmd", tuple(commands))
+
+    def write_user_lowcmd(self, commands: Sequence[MotorCommand]) -> None:
+        assert len(commands) == NUM_JOINTS
+        if self.lowstate_age is None:
+            raise RobotError("write_user_lowcmd", api_ids.ERR_UNKNOWN, "no rt/lowstate yet: mode_machine unknown")
+        self._record("write_user_lowcmd", tuple(commands))
+        super().write_user_lowcmd(commands)
 
     def sport_state(self) -> SportState | None:
         """The state the test set, except that a damping robot reports fsm 1 (as rt/sportmodestate does)."""

@@ -32,6 +32,7 @@ class Harness:
         self.port = port
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
+        params.setdefault("low_level_path", "release")  # the tests of this harness are about the release path
         overrides = [Parameter(k, value=v) for k, v in params.items()]
         self.node = ModeManagerNode(port_factory=lambda _s: port, context=self.context, parameter_overrides=overrides)
         self.client = rclpy.create_node("test_client", context=self.context)

@@ -84,3 +84,18 @@ def test_the_node_runs_on_an_old_name(capfd) -> None:
         node.destroy_node()
         rclpy.try_shutdown(context=context)
     assert "rename it 'cmd_vel_timeout_s'" in capfd.readouterr().err
+
+
+@pytest.mark.parametrize(("name", "value"), [("low_level_path", "limp"), ("user_ctrl_silence", "ignore"),
+                                             ("user_ctrl_hold_kp", 900.0)])
+def test_the_low_level_path_parameters_are_validated_naming_them(name: str, value: object) -> None:
+    with node_with(**{name: value}) as node, pytest.raises((ValueError, InvalidParameterValueException), match=name):
+        declare_settings(node)
+
+
+def test_the_low_level_path_chooses_the_user_ctrl_settings() -> None:
+    with node_with() as node:
+        config = declare_settings(node).user_ctrl_config()
+        assert config is not None and config.silence.value == "hand_back"  # the default: user control
+    with node_with(low_level_path="release") as node:
+        assert declare_settings(node).user_ctrl_config() is None

@@ -21,8 +21,10 @@ from dataclasses import dataclass
 from functools import partial
 
 from g1_mode_manager.core.estop_policy import EstopTiming
+from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.machine.gate import ForwardGate
 from g1_mode_manager.core.machine.state import MachineState
+from g1_mode_manager.core.machine.user_ctrl_steps import UserCtrlSteps
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import ModePort, RobotError
 from g1_mode_manager.core.preemption import RunPort
@@ -49,13 +51,18 @@ class EstopRun:
 
 def verdict(calls: RunPort) -> str:
     """'' if the robot shows damping with the service active, else what it shows."""
+    return verdict_fsm(calls)[0]
+
+
+def verdict_fsm(calls: RunPort) -> tuple[str, int | None]:
+    """``verdict`` and the fsm GetFsmId showed (None: not asked, the service being released)."""
     name = calls.check_mode()
     if not name:
-        return "robot released (CheckMode names no service): not damped"
+        return "robot released (CheckMode names no service): not damped", None
     fsm_id = calls.get_fsm_id()
     if fsm_id != FsmId.DAMP:
-        return f"robot not damping: GetFsmId says {fsm_id}"
-    return ""
+        return f"robot not damping: GetFsmId says {fsm_id}", fsm_id
+    return "", fsm_id
 
 
 class Estop:
@@ -73,11 +80,30 @@ class Estop:
         # guarded by _cond
         self._running = False
         self._last = EstopRun()
+        #: The user_ctrl path's steps (None on the release path): PASSIVE before the Damp while the robot may be
+        #: under user control, where SetFsmId does nothing and only rt/user_lowcmd reaches the joints.
+        self.user_ctrl: UserCtrlSteps | None = None
 
     def shot(self) -> list[str]:
         """The first packet alone: a DampNoReply if the robot is connected (a plain read in front of it);
-        returns why it failed, if it did."""
-        return self.fire_damp_no_reply() if self._state.connected else []
+        returns why it failed, if it did. While the robot may be under user control a damping frame on
+        rt/user_lowcmd goes first: there only that reaches the joints (SetFsmId answers and does nothing)."""
+        if not self._state.connected:
+            return []
+        user_ctrl = self.user_ctrl
+        if user_ctrl is not None and user_ctrl.link.live:
+            notes = self.fire_user_damping(user_ctrl)
+            return notes + self.fire_damp_no_reply()
+        return self.fire_damp_no_reply()
+
+    @staticmethod
+    def fire_user_damping(user_ctrl: UserCtrlSteps) -> list[str]:
+        user_ctrl.link.filler = DAMPING  # the relay repeats it until the robot is seen out of user control
+        try:
+            user_ctrl.port.write_user_lowcmd(DAMPING)
+        except Exception as exc:
+            return [f"damping frame on rt/user_lowcmd failed: {exc}"]
+        return []
 
     def register(self, target: Mode, *, faults: tuple[str, ...] = (),
                  allowed: Callable[[Mode], bool] | None = None) -> Registration | None:  # fmt: skip
@@ -220,11 +246,16 @@ class Estop:
                                          poll_interval_s=self._poll_interval_s, clock=state.clock, sleep=self._sleep,
                                          on_selected=partial(self._damp_at_select, notes)):  # fmt: skip
                     notes.append("SelectMode('ai') sent, DampNoReply at its answer")
+                user_ctrl = self.user_ctrl
+                if user_ctrl is not None:
+                    user_ctrl.before_damp(calls, notes)
                 calls.damp()
                 if not self._gate.wait_calls_landed(deadline):
                     notes.append("a robot call in flight did not return in time")
                 covered = state.current_gen()
-                why = verdict(calls)
+                why, fsm = verdict_fsm(calls)
+                if user_ctrl is not None:
+                    user_ctrl.after_verdict(fsm, damped=not why)
             except (RobotError, StepTimeoutError) as exc:
                 why = str(exc)
             except Exception as exc:

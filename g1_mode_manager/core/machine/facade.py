@@ -20,9 +20,12 @@ from g1_mode_manager.core.machine.gate import ForwardDecision, ForwardGate
 from g1_mode_manager.core.machine.runner import TransitionRunner
 from g1_mode_manager.core.machine.state import AlarmListener, LeaveListener, MachineState
 from g1_mode_manager.core.machine.supervisor import Supervisor
+from g1_mode_manager.core.machine.user_ctrl_steps import UserCtrlSteps
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import ModePort
 from g1_mode_manager.core.records import MachineStatus, Outcome, TransitionRecord
+from g1_mode_manager.core.transitions import Trigger
+from g1_mode_manager.core.user_ctrl import LowLevelPath, UserCtrlConfig, UserCtrlLink, UserCtrlPort
 
 
 class ModeMachine:
@@ -42,7 +45,10 @@ class ModeMachine:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
         history_size: int = 100,
+        user_ctrl: UserCtrlConfig | None = None,
     ) -> None:
+        """``user_ctrl``: LOW_LEVEL by the firmware's user control (``port`` must then be a UserCtrlPort too);
+        None: LOW_LEVEL by ReleaseMode (low_level_path release)."""
         self._timing = timing = estop_timing or EstopTiming()
         self._state = MachineState(clock=clock, on_record=on_record, on_change=on_change, on_alarm=on_alarm,
                                    history_size=history_size)
@@ -53,6 +59,14 @@ class ModeMachine:
         self._estop = Estop(self._state, self._gate, port, timing, poll_interval_s=poll_interval_s, sleep=sleep)
         self._supervisor = Supervisor(self._state, self._gate, self._estop, port, timing)
         self._fault = FaultStop(self._state, self._gate, self._estop)
+        self.user_ctrl_link: UserCtrlLink | None = None
+        if user_ctrl is not None:
+            if not isinstance(port, UserCtrlPort):
+                raise TypeError("low_level_path user_ctrl needs a robot port with SwitchToUserCtrl (UserCtrlPort)")
+            self.user_ctrl_link = UserCtrlLink(clock)
+            steps = UserCtrlSteps(port, self.user_ctrl_link, user_ctrl, clock=clock)
+            self._runner.user_ctrl = self._estop.user_ctrl = steps
+        self._runner.fault = self._supervisor.fault = self._fault.enter
 
     # --- what the node reads ---------------------------------------------------------------------
     @property
@@ -120,6 +134,15 @@ class ModeMachine:
         if target is Mode.EMERGENCY:
             return self.estop()
         return self._runner.request(target)
+
+    @property
+    def low_level_path(self) -> LowLevelPath:
+        return LowLevelPath.RELEASE if self.user_ctrl_link is None else LowLevelPath.USER_CTRL
+
+    def hand_back_on_silence(self) -> Outcome:
+        """~/lowcmd went silent on the user_ctrl path: LOW_LEVEL -> IDLE with the robot handed back to its
+        walk-run controller (upright), or FAULT with PASSIVE (tilted). Refused on the release path."""
+        return self._runner.request(Mode.IDLE, Trigger.SILENCE)
 
     def estop_shot(self) -> list[str]:
         """The e-stop's first packet alone, for an endpoint that fires it from the thread that took the

@@ -13,12 +13,15 @@ from collections.abc import Callable
 
 from g1_mode_manager.core.machine.gate import ForwardGate
 from g1_mode_manager.core.machine.state import Inflight, MachineState
+from g1_mode_manager.core.machine.user_ctrl_steps import UserCtrlSteps
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import ModePort, RobotError
 from g1_mode_manager.core.preemption import Preempted, RunPort
 from g1_mode_manager.core.records import Outcome, Result, TransitionRecord
 from g1_mode_manager.core.service_steps import StepTimeoutError, ensure_service_active, release_service
-from g1_mode_manager.core.transitions import ZERO_TORQUE_NOTE, Step, Transition, lookup, rule_for
+from g1_mode_manager.core.transitions import ZERO_TORQUE_NOTE, Step, Transition, Trigger, lookup, rule_for
+from g1_mode_manager.core.user_ctrl import NotUpright, UserCtrlRefused
+from g1_mode_manager.protocol.fsm import InternalCtrl
 
 
 class TransitionRunner:
@@ -36,8 +39,11 @@ class TransitionRunner:
         self._belief_period_s = belief_period_s
         self._sleep = sleep
         self._running = False  # guarded by state.lock: a request is being handled
+        #: The user_ctrl path's steps (None: low_level_path release) and what a tilted hand-back enters (FAULT).
+        self.user_ctrl: UserCtrlSteps | None = None
+        self.fault: Callable[[tuple[str, ...]], bool] = lambda _faults: False
 
-    def request(self, target: Mode) -> Outcome:
+    def request(self, target: Mode, trigger: Trigger = Trigger.REQUEST) -> Outcome:
         state = self._state
         start = state.clock()
         with state.lock:
@@ -54,7 +60,8 @@ class TransitionRunner:
         try:
             with self._gate.lock, state.lock:
                 source = state.mode
-                rule = rule_for(source, target, mismatch=bool(state.mismatch))
+                rule = rule_for(source, target, mismatch=bool(state.mismatch), trigger=trigger,
+                                user_ctrl=self.user_ctrl is not None)
                 inflight = None
                 if isinstance(rule, Transition):
                     inflight = Inflight(source, target)
@@ -88,12 +95,16 @@ class TransitionRunner:
         state = self._state
         calls = RunPort(self._port, state.note_service, self._sleep, inflight.preempted,
                         changing_call=self._gate.transition_call)
-        error = ""
+        error = refused = tilted = shown = ""
         selected = False
         try:
-            selected = self._run_steps(rule, calls)
+            selected, shown = self._run_steps(rule, calls)
         except Preempted:
             pass
+        except UserCtrlRefused as exc:
+            refused = str(exc)
+        except NotUpright as exc:
+            tilted = error = f"{exc}: SwitchToInternalCtrl(PASSIVE) and FAULT"
         except (RobotError, StepTimeoutError) as exc:
             error = str(exc)
         except Exception as exc:  # a port must raise RobotError; anything else is reported, not raised
@@ -105,6 +116,9 @@ class TransitionRunner:
                 state.inflight = None
             if inflight.preempted.is_set():  # the e-stop owns the mode now; commit nothing
                 result, message = Result.PREEMPTED, f"{source}->{target} preempted by e-stop"
+            elif refused:  # nothing changed on the robot (or it was handed back): the answer is the reason itself
+                result, message = Result.REFUSED, refused
+                state.last_refusal = message
             elif error:
                 result, message = Result.FAILED, f"{source}->{target} failed, staying in {source}: {error}"
                 state.last_refusal = message
@@ -114,18 +128,28 @@ class TransitionRunner:
                 state.mismatch = ""
                 state.next_belief = state.clock() + self._belief_period_s
                 result, message = Result.OK, f"{source}->{target}: {rule.description}"
+                if shown:
+                    message += f" ({shown})"
+                if rule.trigger is Trigger.SILENCE:  # not asked for by anyone: ~/mode must say why the mode changed
+                    state.last_error = message
                 if selected or rule.leaves_robot_limp:
                     message += f"; {ZERO_TORQUE_NOTE}"
+            if self.user_ctrl is not None and Mode.LOW_LEVEL in (inflight.source, inflight.target) \
+                    and result in (Result.OK, Result.FAILED):
+                message += " [low_level_path: user_ctrl]"
             state.version += 1
             mode = state.mode
             record = TransitionRecord(inflight.source, inflight.target, result, duration, message)
             state.history.append(record)
         state.emit(record)
-        return Outcome(result is Result.OK, mode, message, duration, refused=False)
+        if tilted:  # the walk-run controller cannot take a tilted robot: PASSIVE (FAULT's sequence) and FAULT
+            self.fault((f"user_ctrl hand-back: {tilted}",))
+        return Outcome(result is Result.OK, mode, message, duration, refused=bool(refused))
 
-    def _run_steps(self, rule: Transition, calls: RunPort) -> bool:
-        """Run the rule's steps; True if SelectMode was sent (the robot is then limp)."""
+    def _run_steps(self, rule: Transition, calls: RunPort) -> tuple[bool, str]:
+        """Run the rule's steps; True if SelectMode was sent (the robot is then limp), and what the robot showed."""
         selected = False
+        shown = ""
         for step in rule.steps:
             match step:
                 case Step.CONNECT:
@@ -138,6 +162,17 @@ class TransitionRunner:
                 case Step.RELEASE_SERVICE:
                     release_service(calls, timeout_s=self._release_timeout_s, poll_interval_s=self._poll_interval_s,
                                     clock=self._state.clock, sleep=calls.sleep)  # fmt: skip
-                case Step.ESTOP:
-                    raise AssertionError("the e-stop runs EMERGENCY, not the transition runner")
-        return selected
+                case Step.USER_CTRL:
+                    shown = self._user_ctrl().enter(calls)
+                case Step.HAND_BACK_LAST:
+                    shown = self._user_ctrl().hand_back(calls, InternalCtrl.LAST)
+                case Step.HAND_BACK_WALKRUN:
+                    shown = self._user_ctrl().hand_back(calls, InternalCtrl.WALKRUN)
+                case Step.ESTOP | Step.PROTECTIVE_STOP:
+                    raise AssertionError("the e-stop runs EMERGENCY and FAULT, not the transition runner")
+        return selected, shown
+
+    def _user_ctrl(self) -> UserCtrlSteps:
+        if self.user_ctrl is None:
+            raise AssertionError("a user_ctrl step in a rule of the release path")
+        return self.user_ctrl
