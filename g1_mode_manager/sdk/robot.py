@@ -216,7 +216,7 @@ class UnitreeRobot:
         sample = self.state_sample()
         if sample is None or sample.age_s > ATTITUDE_FRESH_S:
             return None
-        return roll_pitch(*decode_body_fields(sample.data).quaternion)
+        return roll_pitch(*sample.fields.quaternion)
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self.loco.set_velocity(vx, vy, wz, duration_s)
