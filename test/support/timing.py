@@ -62,6 +62,9 @@ ROUND_TRIP_S: Final = margin(1.0)
 #: An e-stop's first Damp on the robot while a loco command waits for its outcome: a few ms on a quiet machine,
 #: up to ~0.1 s in a loaded suite, while one held behind the command would come after its outcome wait (1.5 s).
 ESTOP_NOT_HELD_S: Final = margin(0.5)
+#: How long the sim's record may take to show what the robot received: its frame handlers lag their readers on a
+#: loaded machine, so a test waits for the record to show a frame rather than reading it once after a fixed time.
+RECORD_WAIT_S: Final = margin(10.0)
 #: The sim records the body every BODY_PERIOD_S of sim time: the node, reading rt/lowstate at 100 Hz, may see a
 #: condition up to one such period before the record's first sample of it.
 BODY_SAMPLE_S: Final = BODY_PERIOD_S
