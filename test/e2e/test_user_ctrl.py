@@ -21,7 +21,7 @@ from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, USER_CTRL_FSM_ID, Int
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
-from support.timing import RECORD_WAIT_S
+from support.timing import CONTROLLER_STALL_S, RECORD_WAIT_S
 
 pytestmark = pytest.mark.e2e
 
@@ -29,6 +29,9 @@ USER_KP, USER_KD = 250.0, 6.0
 HOLD_KP = UserCtrlConfig().hold_kp
 STANDING_Z_M = 0.6
 USER_CTRL = "low_level_path:=user_ctrl"
+#: For the tests that are not about silence: the test's controller, a thread of the pytest process, may stall on a
+#: loaded machine longer than the default lowcmd_timeout_s, and the node would then rightly hand the robot back.
+STEADY = f"lowcmd_timeout_s:={CONTROLLER_STALL_S}"
 
 
 class HoldController:
@@ -129,7 +132,7 @@ def _no_user_frame_before_1000(ev) -> None:
 
 
 def test_walking_to_user_control_and_back_to_walking(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
     controller = HoldController(stack)
     _enter_walking(stack)
     start = time.monotonic()
@@ -190,7 +193,7 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
 
 
 def test_estop_in_user_control_damps_and_verifies(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
     controller = HoldController(stack)
     _enter_walking(stack)
     _enter_user_ctrl(stack, controller)
@@ -222,7 +225,7 @@ def test_estop_in_user_control_damps_and_verifies(shared_stack_factory) -> None:
 
 def test_estop_inside_the_entry(shared_stack_factory) -> None:
     stack = shared_stack_factory(faults={"user_ctrl_delay_s": 1.5, "delay_s": {"7110": 0.5}},
-                                 node_params=(USER_CTRL, "user_ctrl_switch_timeout_s:=4.0"))
+                                 node_params=(USER_CTRL, STEADY, "user_ctrl_switch_timeout_s:=4.0"))
     controller = HoldController(stack)
     _enter_walking(stack)
     controller.start()
@@ -250,7 +253,7 @@ def test_estop_inside_the_entry(shared_stack_factory) -> None:
 
 
 def test_firmware_without_user_control_is_refused_with_nothing_changed(shared_stack_factory) -> None:
-    stack = shared_stack_factory(faults={"user_ctrl": "none"}, node_params=(USER_CTRL,))
+    stack = shared_stack_factory(faults={"user_ctrl": "none"}, node_params=(USER_CTRL, STEADY))
     assert stack.set_mode("high_level").success
     t0 = time.monotonic()
     r = stack.set_mode("low_level")
@@ -267,7 +270,7 @@ def test_firmware_without_user_control_is_refused_with_nothing_changed(shared_st
 
 
 def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
     controller = HoldController(stack)
     _enter_walking(stack)
     _enter_user_ctrl(stack, controller)
@@ -287,7 +290,7 @@ def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory
 
 
 def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
     controller = HoldController(stack)
     modes = stack.modes()
     _enter_walking(stack)

@@ -62,6 +62,9 @@ ROUND_TRIP_S: Final = margin(1.0)
 #: An e-stop's first Damp on the robot while a loco command waits for its outcome: a few ms on a quiet machine,
 #: up to ~0.1 s in a loaded suite, while one held behind the command would come after its outcome wait (1.5 s).
 ESTOP_NOT_HELD_S: Final = margin(0.5)
+#: A test's own controller (a 500 Hz publisher thread in the pytest process) may stall this long on a loaded
+#: machine: a test that is not about silence sets the node's lowcmd_timeout_s to it.
+CONTROLLER_STALL_S: Final = margin(1.0)
 #: How long the sim's record may take to show what the robot received: its frame handlers lag their readers on a
 #: loaded machine, so a test waits for the record to show a frame rather than reading it once after a fixed time.
 RECORD_WAIT_S: Final = margin(10.0)
