@@ -324,3 +324,23 @@ def test_from_a_damped_robot_and_back_to_damping_by_last(shared_stack_factory) -
     assert _internal_ctrl(ev) == [InternalCtrl.LAST]
     _no_user_frame_before_1000(ev)
     assert _frames(ev, "lowcmd") == []
+
+
+def test_entry_straight_from_walking_waits_for_rest(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    stack.drive_sim_time(0.4, 2.0)
+    t0 = time.monotonic()
+    r = stack.set_mode("low_level")  # no controller: handed back once the entry is done (silence)
+    print(f"set_mode low_level straight from walking: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
+    assert r.success, r.message
+    _wait_sim(stack, 3.0)
+    ev = stack.record.events()
+    switch = next(e for e in requests(ev, api.LOCO_SWITCH_TO_USER_CTRL) if e["t"] >= t0)
+    body = [e for e in of_kind(ev, "body") if t0 <= e["t"] <= switch["t"]]
+    print(f"7110 sent {(switch['t'] - t0) * 1000:.0f} ms after the request; largest |dq| meanwhile "
+          f"{max(e['dq'] for e in body):.2f} rad/s, at the switch {body[-1]['dq']:.2f} rad/s")
+    assert body[-1]["dq"] <= UserCtrlConfig().rest_speed_rad_s
+    assert _lowest(ev, t0) > STANDING_Z_M
+    assert stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS
