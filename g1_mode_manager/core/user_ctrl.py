@@ -71,6 +71,9 @@ class UserCtrlPort(Protocol):
     def attitude(self) -> tuple[float, float] | None:
         """(roll, pitch) of the pelvis IMU from the newest state sample, rad; None without a fresh one."""
 
+    def joint_speed_max(self) -> float | None:
+        """The largest |dq| of the newest state sample, rad/s; None without a fresh one."""
+
 
 @dataclass(frozen=True)
 class UserCtrlConfig:
@@ -80,6 +83,8 @@ class UserCtrlConfig:
     poll_interval_s: float = 0.02  # GetFsmId while waiting for either
     hold_kp: float = 300.0  # the hand-over / hold frame's stiffness, N m/rad
     hold_kd: float = 8.0  # and damping, N m s/rad
+    rest_speed_rad_s: float = 0.5  # the hand-over frame holds a pose: the robot must be at rest (every |dq| below)
+    rest_timeout_s: float = 3.0  # how long the entry waits for rest after StopMove before it refuses
     silence: SilenceReaction = SilenceReaction.HAND_BACK
 
 

@@ -106,6 +106,9 @@ DESCRIPTIONS: dict[str, str] = {
     "user_ctrl_silence": "user_ctrl: what no ~/lowcmd for lowcmd_timeout_s does. 'hand_back': SwitchToInternalCtrl "
     "WALKRUN when upright (|roll| <= 1.0, |pitch| <= 0.8 rad) and LOW_LEVEL -> IDLE, PASSIVE and FAULT when not; "
     "'damp': damping frames on rt/user_lowcmd, LOW_LEVEL kept.",
+    "user_ctrl_rest_speed_rad_s": "user_ctrl: the entry waits until every joint is slower than this (the hand-over "
+    "frame holds a pose; one taken mid-step falls over), rad/s.",
+    "user_ctrl_rest_timeout_s": "user_ctrl: how long the entry waits for the robot at rest before it refuses, s.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }

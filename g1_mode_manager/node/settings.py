@@ -102,6 +102,8 @@ class Settings:
     user_ctrl_hold_kp: float = UserCtrlConfig.hold_kp
     user_ctrl_hold_kd: float = UserCtrlConfig.hold_kd
     user_ctrl_silence: str = UserCtrlConfig.silence.value
+    user_ctrl_rest_speed_rad_s: float = UserCtrlConfig.rest_speed_rad_s
+    user_ctrl_rest_timeout_s: float = UserCtrlConfig.rest_timeout_s
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
@@ -113,7 +115,9 @@ class Settings:
         if LowLevelPath(self.low_level_path) is LowLevelPath.RELEASE:
             return None
         return UserCtrlConfig(switch_timeout_s=self.user_ctrl_switch_timeout_s, hold_kp=self.user_ctrl_hold_kp,
-                              hold_kd=self.user_ctrl_hold_kd, silence=SilenceReaction(self.user_ctrl_silence))
+                              hold_kd=self.user_ctrl_hold_kd, silence=SilenceReaction(self.user_ctrl_silence),
+                              rest_speed_rad_s=self.user_ctrl_rest_speed_rad_s,
+                              rest_timeout_s=self.user_ctrl_rest_timeout_s)
 
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)

@@ -285,3 +285,13 @@ def test_a_switch_landing_after_the_entry_gave_up_is_a_fault_damped_with_passive
     assert rig.machine.mode is FA and rig.wait_damp_confirmed()
     assert rig.robot.internal_ctrl_calls[-1] is InternalCtrl.PASSIVE and rig.robot.damped
     assert any("fsm 1000" in f for f in rig.machine.status().faults)
+
+
+def test_the_entry_waits_for_rest_and_refuses_a_robot_that_keeps_moving() -> None:
+    rig = Rig()
+    rig.to(HI)
+    rig.robot.joint_speed = 2.5  # stepping
+    outcome = rig.machine.request(LO)
+    assert outcome.refused and "not at rest" in outcome.message and "2.50 rad/s" in outcome.message, outcome
+    assert "switch_to_user_ctrl" not in rig.robot.names() and not rig.robot.user_frames and not rig.link.live
+    assert rig.clock is not None and rig.clock.slept >= UserCtrlConfig().rest_timeout_s

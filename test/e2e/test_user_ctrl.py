@@ -309,3 +309,47 @@ def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> No
     print(f"L2+B: first damping frame {(damping[0]['t'] - t0) * 1000:.0f} ms, PASSIVE {(passive[0]['t'] - t0) * 1000:.0f} "
           "ms after the keys were set")
     assert stack.sim.get()["sport"]["fsm_id"] == 1 and not stack.sim.get()["user_ctrl"]
+
+
+def test_from_a_damped_robot_and_back_to_damping_by_last(shared_stack_factory) -> None:
+    # in the gantry, as Unitree's user-control example is run: a damped G1 standing free sinks to the floor, where
+    # LOW_LEVEL's fall check (the user's controller is responsible for keeping it up) would FAULT at once
+    stack = shared_stack_factory(node_params=(USER_CTRL,), bridge_args=("--gantry",))
+    controller = HoldController(stack)
+    assert stack.set_mode("high_level").success
+    assert stack.loco("damp").success
+    _wait_sim(stack, 3.0)  # damping: the robot sinks and comes to rest
+    assert stack.set_mode("idle").success
+    _enter_user_ctrl(stack, controller)
+    _wait_sim(stack, 1.0)
+    r = stack.set_mode("idle")
+    print(f"set_mode idle: {r.message}")
+    assert r.success and "fsm 1 seen" in r.message, r.message
+    controller.stop()
+    ev = stack.record.events()
+    fsms = [fsm for _, fsm in _states(ev)]
+    i = fsms.index(USER_CTRL_FSM_ID)
+    assert fsms[i - 1] == 1 and fsms[i + 1] == 1, fsms  # from damping, back to damping
+    assert _internal_ctrl(ev) == [InternalCtrl.LAST]
+    _no_user_frame_before_1000(ev)
+    assert _frames(ev, "lowcmd") == []
+
+
+def test_entry_straight_from_walking_waits_for_rest(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    stack.drive_sim_time(0.4, 2.0)
+    t0 = time.monotonic()
+    r = stack.set_mode("low_level")  # no controller: handed back once the entry is done (silence)
+    print(f"set_mode low_level straight from walking: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
+    assert r.success, r.message
+    _wait_sim(stack, 3.0)
+    ev = stack.record.events()
+    switch = next(e for e in requests(ev, api.LOCO_SWITCH_TO_USER_CTRL) if e["t"] >= t0)
+    body = [e for e in of_kind(ev, "body") if t0 <= e["t"] <= switch["t"]]
+    print(f"7110 sent {(switch['t'] - t0) * 1000:.0f} ms after the request; largest |dq| meanwhile "
+          f"{max(e['dq'] for e in body):.2f} rad/s, at the switch {body[-1]['dq']:.2f} rad/s")
+    assert body[-1]["dq"] <= UserCtrlConfig().rest_speed_rad_s
+    assert _lowest(ev, t0) > STANDING_Z_M
+    assert stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS

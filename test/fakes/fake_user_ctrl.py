@@ -33,6 +33,7 @@ class UserCtrlRobot(FakeRobot):
         self.internal_ctrl_calls: list[InternalCtrl] = []
         self.pose: list[float] | None = [0.0] * 29
         self.roll_pitch: tuple[float, float] | None = (0.0, 0.0)
+        self.joint_speed: float | None = 0.0  # largest |dq|, rad/s: at rest
 
     def _fsm(self) -> int:
         if self.user_ctrl:
@@ -104,3 +105,6 @@ class UserCtrlRobot(FakeRobot):
 
     def attitude(self) -> tuple[float, float] | None:
         return self.roll_pitch
+
+    def joint_speed_max(self) -> float | None:
+        return self.joint_speed

@@ -48,6 +48,7 @@ class UserCtrlSteps:
             raise UserCtrlRefused("the high-level service is released (debug mode): user control needs it; request "
                                   "HIGH_LEVEL first, or use low_level_path: release")
         before = calls.get_fsm_id()
+        self._wait_for_rest(calls)
         pose = self._measured_pose(calls)
         if pose is None:
             raise UserCtrlRefused("no measured pose (rt/lowstate not received): nothing to hold the robot at")
@@ -88,6 +89,24 @@ class UserCtrlSteps:
                                   f"{self.config.switch_timeout_s:g} s: SwitchToInternalCtrl(LAST) sent; {shown}")
         self.link.entered()
         return f"fsm {before} -> 1000 seen"
+
+    def _wait_for_rest(self, calls: RunPort) -> None:
+        """A stiff hold of a pose taken mid-step falls over: wait until every joint is slower than
+        rest_speed_rad_s on three samples in a row (a walk-run controller coming to rest after StopMove takes
+        about a second), at most rest_timeout_s; then refuse, nothing changed."""
+        deadline = self._clock() + self.config.rest_timeout_s
+        still = 0
+        speed = None
+        while still < 3:
+            speed = self.port.joint_speed_max()
+            still = still + 1 if speed is not None and speed <= self.config.rest_speed_rad_s else 0
+            if still < 3:
+                if self._clock() >= deadline:
+                    what = "no fresh rt/lowstate" if speed is None else f"a joint at {speed:.2f} rad/s"
+                    raise UserCtrlRefused(f"the robot is not at rest after {self.config.rest_timeout_s:g} s ({what} > "
+                                          f"{self.config.rest_speed_rad_s:g}): nothing changed; stop it, then request "
+                                          "LOW_LEVEL again")
+                calls.sleep(self.config.poll_interval_s)
 
     def _measured_pose(self, calls: RunPort) -> Sequence[float] | None:
         """The joints' measured pose; rt/lowstate may have been subscribed only for this entry (an idle HIGH_LEVEL
