@@ -8,17 +8,13 @@ without a rt/lowstate reader in another process.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 
 import numpy as np
-
-_KEEP: list[object] = []
 
 _READER = """
 import sys, time
@@ -42,7 +38,7 @@ def packing(n: int = 3000) -> None:
     from g1_mode_manager.protocol.dds import apply_robot_type_compat
 
     apply_robot_type_compat()
-    from g1_sim.bridge.lowstate_codec import LowStatePacker, _default_lowstate
+    from g1_sim.bridge.lowstate_codec import LowStatePacker, default_lowstate
 
     packer = LowStatePacker()
     z = np.zeros(29)
@@ -50,7 +46,7 @@ def packing(n: int = 3000) -> None:
     for i in range(n):
         packer.pack(z, z, z, np.array([1.0, 0, 0, 0]), z[:3], z[:3], z[:3], i).serialize(use_version_2=False)
     ours = (time.perf_counter() - t0) / n
-    msg, crc = _default_lowstate(5), CRC()
+    msg, crc = default_lowstate(5), CRC()
     t0 = time.perf_counter()
     for _ in range(n // 10):
         msg.crc = crc.Crc(msg)
@@ -61,46 +57,25 @@ def packing(n: int = 3000) -> None:
 
 def bridge_rtf(domain: int, seconds: float, with_reader: bool) -> float:
     from g1_mode_manager.protocol.dds import init_channels
+    from harness.sim_bridge import shared_sim_status, start_sim_bridge
 
     init_channels(domain, "lo")
-    from unitree_sdk2py.rpc.client import Client
-
-    argv = [sys.executable, "-m", "g1_sim.bridge.main", "--domain", str(domain), "--speed", "0"]
-    bridge = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    bridge = start_sim_bridge(domain, speed=0.0)
     reader = None
     try:
-        assert bridge.stdout is not None
-        for line in bridge.stdout:
-            if line.strip() == "sim_bridge ready":
-                break
-        else:
-            raise RuntimeError("the bridge exited before it was ready")
-        threading.Thread(target=lambda: [None for _ in bridge.stdout], daemon=True).start()  # drain
         if with_reader:
             reader = subprocess.Popen([sys.executable, "-c", _READER, str(domain)], start_new_session=True)
             time.sleep(3.0)
-        status = Client("g1_sim", False)
-        status._RegistApi(9001, 0)
-        status.SetTimeout(2.0)
-        _KEEP.append(status)  # SDK entities must outlive every bridge (see test/support/sim_bridge.py)
-
-        def get() -> dict:
-            for _ in range(50):
-                code, data = status._Call(9001, "{}")
-                if code == 0:
-                    return json.loads(data)
-                time.sleep(0.1)
-            raise RuntimeError("no status")
-
-        s0, t0 = get(), time.monotonic()
+        status = shared_sim_status()  # one for the process: SDK entities must outlive every bridge
+        s0, t0 = status.wait_ready(), time.monotonic()
         time.sleep(seconds)
-        s1, t1 = get(), time.monotonic()
+        s1, t1 = status.get(), time.monotonic()
         return (s1["sim_time"] - s0["sim_time"]) / (t1 - t0)
     finally:
-        for proc in (reader, bridge):
-            if proc is not None and proc.poll() is None:
-                os.killpg(proc.pid, signal.SIGINT)
-                proc.wait(10)
+        if reader is not None and reader.poll() is None:
+            os.killpg(reader.pid, signal.SIGINT)
+            reader.wait(10)
+        bridge.stop()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,8 +2,9 @@
 
 SDK-only (runs in .venv or .venv-cyclone010): ``python -m bench.rpc_rtt server DOMAIN`` serves a "bench"
 service; ``python -m bench.rpc_rtt client DOMAIN [N]`` times N GetServerApiVersion calls (after 50 to
-warm up) and prints the median and p99 in ms. On cyclonedds 11 the robot type fix is applied and lo is
-configured for unicast + multicast (as the sim bridge), so both stacks discover each other.
+warm up) and prints the median and p99 in ms. On cyclonedds 11 ``protocol.dds.init_channels`` applies the
+robot type fix and configures lo for unicast + multicast (as the sim bridge), so both stacks discover each
+other.
 """
 
 import statistics
@@ -14,19 +15,15 @@ import time
 def _init(domain: int) -> str:
     from importlib.metadata import version
 
-    from unitree_sdk2py.core import channel
-
     stack = f"cyclonedds {version('cyclonedds')}"
-    if not stack.startswith("cyclonedds 0.10"):  # 11: the robot type fix, and lo served like the sim bridge
-        from cyclonedds.idl._typesupport.DDS import XTypes
+    if stack.startswith("cyclonedds 0.10"):  # the robot's stack: the SDK's own set-up, as on a robot
+        from unitree_sdk2py.core import channel
 
-        XTypes.TK_UINT8, XTypes.TK_INT8 = XTypes.TK_BYTE, XTypes.TK_CHAR8
-        channel.ChannelConfigHasInterface = (
-            '<?xml version="1.0" encoding="UTF-8" ?><CycloneDDS><Domain Id="any"><General><Interfaces>'
-            '<NetworkInterface name="lo" multicast="true"/></Interfaces><AllowMulticast>true</AllowMulticast>'
-            "</General><Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>60"
-            '</MaxAutoParticipantIndex><Peers><Peer address="127.0.0.1"/></Peers></Discovery></Domain></CycloneDDS>')
-    channel.ChannelFactoryInitialize(domain, "lo")
+        channel.ChannelFactoryInitialize(domain, "lo")
+    else:  # 11: the robot type fix, and lo served like the sim bridge, so that 0.10 finds it too
+        from g1_mode_manager.protocol.dds import init_channels
+
+        init_channels(domain, "lo", serve_multicast=True)
     return stack
 
 

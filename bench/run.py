@@ -27,10 +27,9 @@ from collections.abc import Callable
 from itertools import pairwise
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO / "test"))  # test/support: process management, the sim's record
+from harness.domains import allocate_run_domains
 
-from support.domains import allocate_run_domains  # noqa: E402
+REPO = Path(__file__).resolve().parents[1]
 
 # Domains held by file locks like the tests' (a bench beside a test run must not share its robot).
 _ROS_DOMAIN, SDK_DOMAIN = allocate_run_domains()
@@ -39,9 +38,9 @@ os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
 from g1_mode_manager.protocol import api_ids  # noqa: E402
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES  # noqa: E402
-from support.mode_manager import RosClient, start_mode_manager, wait_until  # noqa: E402
-from support.sim_bridge import shared_sim_status, start_sim_bridge  # noqa: E402
-from support.sim_record import is_damp, requests, velocity_of  # noqa: E402
+from harness.mode_manager import RosClient, start_mode_manager, wait_until  # noqa: E402
+from harness.sim_bridge import shared_sim_status, start_sim_bridge  # noqa: E402
+from harness.sim_record import is_damp, requests, velocity_of  # noqa: E402
 
 NODE = "/g1_mode_manager"
 

@@ -50,6 +50,13 @@ def allows_arm_commands(mode: Mode) -> bool:
     return mode is Mode.HIGH_LEVEL
 
 
+def allows_arm_ramp_out(mode: Mode) -> bool:
+    """A hand-back frame (the arm weight going down) passes in every mode but EMERGENCY and FAULT, also while a
+    transition runs (leaving HIGH_LEVEL waits for the ramp-out) and while a body check holds motion: after an
+    e-stop or a protective stop nothing but damping reaches the robot."""
+    return mode not in (Mode.EMERGENCY, Mode.FAULT)
+
+
 def allows_loco_commands(mode: Mode) -> bool:
     """Posture commands of the built-in controller (StandUp, Start, ...) pass only in HIGH_LEVEL."""
     return mode is Mode.HIGH_LEVEL

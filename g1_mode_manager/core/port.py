@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND, describe_code
+from g1_mode_manager.protocol.body_fields import BodyFields
 from g1_mode_manager.protocol.odom_fields import OdomFields
 
 
@@ -117,9 +118,9 @@ class VoicePort(Protocol):
 
 @dataclass(frozen=True)
 class StateSample:
-    """The newest robot state sample: a serialised LowState_ and how old it is."""
+    """The newest robot state sample: what the body checks read of its LowState_, and how old it is."""
 
-    data: bytes
+    fields: BodyFields
     age_s: float
     low_rate: bool  # from rt/lf/lowstate (about 20 Hz), not rt/lowstate
 

@@ -14,9 +14,9 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import VoicePort
-from g1_mode_manager.relay.events import RelayEvents
 
 Rgb = tuple[int, int, int]
 OFF: Rgb = (0, 0, 0)

@@ -1,24 +1,20 @@
-"""The node's side of the body checks: the body watch's thread, ~/clear_fault, and what /diagnostics shows
-of each check."""
+"""The node's side of the body checks: the body watch's thread and what /diagnostics shows of each check
+(~/clear_fault, which releases what they latched, is served with the other services in services.py)."""
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from rclpy.callback_groups import CallbackGroup
-from std_srvs.srv import Trigger
 
 from g1_mode_manager.core.body.checks import BY_NAME, Reaction
 from g1_mode_manager.core.body.monitor import BodyMonitor, CheckStatus
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.node.settings import Settings, parse_keys
-from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.relay.body_watch import BodyWatch
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.periodic import PeriodicWorker
 
 _LEVELS = {"fault": DiagnosticStatus.ERROR, "hold": DiagnosticStatus.ERROR, "warn": DiagnosticStatus.WARN,
@@ -29,7 +25,6 @@ class BodySupervision:
     def __init__(self, port: RobotPort, machine: ModeMachine, events: RelayEvents, settings: Settings,
                  on_error: Callable[[BaseException], None]) -> None:  # fmt: skip
         s = settings
-        self._machine = machine
         self.monitor = BodyMonitor(clear_hold_s=s.fault_clear_hold_s, thresholds=s.body_thresholds())
         self.watch = BodyWatch(port, machine, self.monitor, events, estop_keys=parse_keys(s.remote_estop_keys),
                                deadman_keys=parse_keys(s.lowcmd_deadman_key),
@@ -38,20 +33,11 @@ class BodySupervision:
         self._worker = PeriodicWorker("body_watch", s.body_check_rate_hz, lambda _dt: self.watch.step(), on_error,
                                       period_s=self.watch.period_s)
 
-    def serve(self, side: SideNode, group: CallbackGroup) -> None:
-        side.node.create_service(Trigger, side.name_under_main("clear_fault"), self._on_clear_fault,
-                                 callback_group=group)
-
     def start(self) -> None:
         self._worker.start()
 
     def stop(self) -> None:
         self._worker.stop()
-
-    def _on_clear_fault(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-        outcome = self._machine.clear_fault(lambda: self.monitor.clearable(time.monotonic()), self.monitor.clear)
-        response.success, response.message = outcome.success, outcome.message
-        return response
 
     def diagnostics(self, hardware_id: str, mode: Mode) -> list[DiagnosticStatus]:
         """One status per check: its value, threshold, state and what it does in the current mode."""

@@ -1,6 +1,6 @@
 """The e-stop endpoints, on a node and thread of their own so that they always get through, at once.
 
-The main node's executor threads may all be busy (a slow SelectMode, a flood of service calls); the
+The services' threads may all be busy (a slow SelectMode, a flood of service calls); the
 e-stop service and topic are taken by a thread of their own from a wait set of just them
 (``StreamTaker``), which fires the e-stop's first packet (the mode machine's DampNoReply) right where it
 took the request: no executor dispatch, no pool hand-off, no log line in front of it. The rest (EMERGENCY

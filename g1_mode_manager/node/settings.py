@@ -1,27 +1,26 @@
-"""Parameters of the mode manager node, declared up front with descriptions and ranges.
+"""Parameters of the mode manager node: their defaults, declared up front, validated at start.
 
 :class:`Settings` is the one home of every parameter's default: the relays, the head LED and the velocity
 limits take their values from it (none has a default of its own that could disagree). The e-stop's
 timings are named from EstopTiming, whose defaults the mode machine also uses when built without the node.
-config/mode_manager.yaml repeats each default (test/node/test_settings_yaml.py keeps the two equal).
+config/mode_manager.yaml repeats each default (test/node/test_settings_yaml.py keeps the two equal). Each
+parameter's description and range are in parameter_descriptions.py.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
-from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 
 from g1_mode_manager.core.body.checks import BY_NAME as BODY_CHECKS
 from g1_mode_manager.core.estop_policy import EstopTiming
-from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.user_ctrl import LowLevelPath, SilenceReaction, UserCtrlConfig
-from g1_mode_manager.core.velocity import MAX_MOVE_DURATION_S, VelocityLimits
+from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
+from g1_mode_manager.node.parameter_descriptions import descriptor
+from g1_mode_manager.node.renamed_parameters import read_old_names
 from g1_mode_manager.protocol.remote import key_mask
 
 
@@ -145,159 +144,21 @@ BODY_THRESHOLD_PARAMETERS: dict[str, str] = {
 }
 
 
-_DESCRIPTIONS: dict[str, str] = {
-    "network_interface": "Network interface of the robot side (Unitree SDK2 / Cyclone DDS): 'lo' for the sim, "
-    "e.g. 'eth0' for a real G1. Read at start.",
-    "dds_domain": "Cyclone DDS domain of the robot side (a real G1 uses 0). Read at start.",
-    "rpc_timeout_s": "Timeout of one robot RPC (loco and motion switcher calls), s.",
-    "loco_outcome_timeout_s": "~/loco_command answers success only once the robot shows the command's outcome "
-    "(fsm id, balance mode, stand height, arm task); it waits at most this long for it, s.",
-    "loco_motion_timeout_s": "The same for stand_up, squat and sit, which start a posture motion of seconds: "
-    "answered when the motion finished (fsm_mode 0), s.",
-    "not_walking_after_s": "Moves acknowledged for this long while the robot's odometry shows it not walking "
-    "(below a fifth of the command) -> a WARN on /diagnostics and in ~/mode, s.",
-    "odom_rate_hz": "Publish odom (nav_msgs/Odometry) and the odom -> child frame TF from the robot's "
-    "rt/lf/odommodestate at most this often, each sample once; 0 = off.",
-    "odom_frame_id": "Frame of the robot's odometry (header.frame_id of odom, parent of the TF).",
-    "odom_child_frame_id": "Body frame of the odometry (child_frame_id, the TF's child); the G1's URDF root is pelvis.",
-    "odom_publish_tf": "Also publish the odom -> child frame transform on /tf (when odom_rate_hz > 0).",
-    "select_timeout_s": "How long SelectMode('ai') plus its confirmation may take, s (a real robot takes seconds).",
-    "release_timeout_s": "How long ReleaseMode may take until CheckMode reports no service, s.",
-    "cmd_vel_timeout_s": "Watchdog: no /cmd_vel for this long sends one StopMove, s.",
-    "cmd_vel_rate_hz": "Keep-alive rate of a steady Move, Hz (a new /cmd_vel is sent at once, a ramp steps at 20 Hz, "
-    "the watchdog has its own deadline).",
-    "cmd_vel_max_rate_hz": "At most this many Moves per second reach the robot (two may go back to back), whatever "
-    "the /cmd_vel rate, Hz.",
-    "move_duration_s": "Lease of each Move (at most 2 s): the robot stops by itself if no newer Move arrives, s. "
-    "The real robot ignores velocities below about 0.1; such commands are sent as one StopMove.",
-    "max_vx": "Clamp of forward velocity, m/s.",
-    "max_vy": "Clamp of lateral velocity, m/s.",
-    "max_wz": "Clamp of yaw rate, rad/s.",
-    "max_ax": "Forward acceleration limit, m/s^2.",
-    "max_ay": "Lateral acceleration limit, m/s^2.",
-    "max_awz": "Yaw acceleration limit, rad/s^2.",
-    "arm_ramp_time_s": "Time for the rt/arm_sdk blend weight to go 0 -> 1 or 1 -> 0, s.",
-    "arm_cmd_timeout_s": "No ~/arm_cmd for this long ramps the arms back to the controller, s.",
-    "arm_rate_hz": "Rate of rt/arm_sdk frames while the weight is above zero, Hz.",
-    "arm_kp": "Stiffness of arm_sdk targets, N m/rad.",
-    "arm_kd": "Damping of arm_sdk targets, N m s/rad.",
-    "lowcmd_timeout_s": "No ~/lowcmd for this long in LOW_LEVEL sends damping frames (kp 0, kd > 0), s.",
-    "lowcmd_damping_rate_hz": "Rate of damping frames while ~/lowcmd is silent (or the link lost) in LOW_LEVEL, Hz.",
-    "lowcmd_exit_damping_s": "After LOW_LEVEL -> IDLE, damping frames go on this long (the robot holds the last frame), s.",
-    "link_timeout_s": "rt/lowstate (and in HIGH_LEVEL rt/sportmodestate) older than this = link lost, s.",
-    "mode_publish_rate_hz": "Rate at which ~/mode is re-published besides every change, Hz.",
-    "diagnostics_rate_hz": "Rate of /diagnostics, Hz.",
-    "estop_call_timeout_s": "Timeout of each Damp and GetFsmId of an e-stop (short: a dead link must not hold it), s.",
-    "estop_select_timeout_s": "Timeout of an e-stop's motion switcher calls (CheckMode, SelectMode('ai') and its "
-    "confirmation), s.",
-    "estop_timeout_s": "An e-stop answers within this (plus one call timeout): verified damped, or failed while "
-    "supervision keeps trying, s.",
-    "supervise_rate_hz": "Rate at which the robot is checked against the mode (EMERGENCY: re-damped if seen out of "
-    "damping), Hz.",
-    "sportmodestate_rate_hz": "Rate at which ~/sportmodestate mirrors the newest rt/sportmodestate (a sample is "
-    "published once; none while the robot is silent); 0 = off, Hz.",
-    "estop_verify_period_s": "In EMERGENCY: period of CheckMode + GetFsmId re-verification of the robot, s.",
-    "belief_check_period_s": "Outside EMERGENCY: period of the CheckMode that confirms the robot still matches the "
-    "mode, s.",
-    "head_led_enabled": "Show the mode on the robot's head LED (voice service; a failure is counted, never fatal).",
-    "head_led_rate_hz": "Rate of the head LED worker; a colour is sent only when it changes, Hz.",
-    "head_led_uninitialized": "Head LED in UNINITIALIZED: 'R G B [solid|pulse|flash] [period_s]'.",
-    "head_led_idle": "Head LED in IDLE: 'R G B [solid|pulse|flash] [period_s]'.",
-    "head_led_high_level": "Head LED in HIGH_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
-    "head_led_low_level": "Head LED in LOW_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
-    "head_led_emergency": "Head LED in EMERGENCY: 'R G B [solid|pulse|flash] [period_s]'.",
-    "head_led_fault": "Head LED in FAULT: 'R G B [solid|pulse|flash] [period_s]'.",
-    "announce_modes": "Announce every mode change through the robot's speaker (TTS).",
-    "voice_timeout_s": "Timeout of one head LED or TTS call, s (the LED worker waits, nothing else does).",
-    "joint_state_rate_hz": "Rate of joint_states (sensor_msgs/JointState) and ~/imu from rt/lowstate; 0 = off, Hz.",
-    "body_checks_enabled": "Watch the robot's body (falls, heat, battery, a lost state stream) and react per mode "
-    "(warn, hold, FAULT). The remote's e-stop works either way.",
-    "body_check_rate_hz": "Rate of the body checks while rt/lowstate is received (IDLE, LOW_LEVEL, arms in play), Hz.",
-    "body_check_slow_rate_hz": "Rate of the body checks on rt/lf/lowstate alone (an idle HIGH_LEVEL), Hz.",
-    "tilt_limit_rad": "A fall: body z axis further than this from vertical while something holds the robot up, rad.",
-    "spin_limit_rad_s": "Any gyro axis faster than this while something holds the robot up, rad/s.",
-    "joint_speed_limit_rad_s": "Any joint faster than this while something holds the robot up, rad/s.",
-    "winding_limit_c": "Hottest motor winding (temperature[1]) above this: LOW_LEVEL FAULT, HIGH_LEVEL hold, degC.",
-    "casing_limit_c": "Hottest motor casing (temperature[0]) above this: LOW_LEVEL FAULT, HIGH_LEVEL hold, degC.",
-    "winding_critical_c": "Hottest winding above this: FAULT in every mode, degC.",
-    "casing_critical_c": "Hottest casing above this: FAULT in every mode, degC.",
-    "battery_low_pct": "Battery state of charge below this: a warning, %.",
-    "battery_critical_pct": "Battery below this: no new motion in HIGH_LEVEL and LOW_LEVEL, %.",
-    "state_lost_s": "No robot state (rt/lowstate, or rt/lf/lowstate) for this long: FAULT in LOW_LEVEL, s.",
-    "fault_clear_hold_s": "~/clear_fault succeeds only once every tripped check has been clear this long, s.",
-    "remote_estop_keys": "Keys of the robot's remote that e-stop in every mode when held together, e.g. 'L2+B' "
-    "(the combination the built-in controller damps on); '' = off.",
-    "lowcmd_deadman_key": "LOW_LEVEL dead-man: user lowcmd passes only while this remote key (or 'A+B') is held, "
-    "damping frames otherwise; '' = off.",
-    "low_level_path": "How LOW_LEVEL is entered and left. 'user_ctrl' (newer firmware): a hand-over frame holds the "
-    "measured pose, SwitchToUserCtrl, fsm 1000 seen before a user frame passes; ~/lowcmd -> rt/user_lowcmd; exits hand "
-    "the robot back to its own controller (never limp). 'release': ReleaseMode, ~/lowcmd -> rt/lowcmd, the robot limp "
-    "on entry and exit. Firmware without user control refuses 'user_ctrl' with nothing changed. Read at start.",
-    "user_ctrl_switch_timeout_s": "user_ctrl: after SwitchToUserCtrl answered, GetFsmId must show 1000 within this "
-    "(else SwitchToInternalCtrl LAST and refused); after SwitchToInternalCtrl, another fsm within this, s.",
-    "user_ctrl_hold_kp": "user_ctrl: stiffness of the hand-over / hold frame (every joint at its measured pose) on "
-    "rt/user_lowcmd, N m/rad.",
-    "user_ctrl_hold_kd": "user_ctrl: damping of the hand-over / hold frame, N m s/rad.",
-    "user_ctrl_silence": "user_ctrl: what no ~/lowcmd for lowcmd_timeout_s does. 'hand_back': SwitchToInternalCtrl "
-    "WALKRUN when upright (|roll| <= 1.0, |pitch| <= 0.8 rad) and LOW_LEVEL -> IDLE, PASSIVE and FAULT when not; "
-    "'damp': damping frames on rt/user_lowcmd, LOW_LEVEL kept.",
-    "user_ctrl_rest_speed_rad_s": "user_ctrl: the entry waits until every joint is slower than this (the hand-over "
-    "frame holds a pose; one taken mid-step falls over), rad/s.",
-    "user_ctrl_rest_timeout_s": "user_ctrl: how long the entry waits for the robot at rest before it refuses, s.",
-    "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
-    "instead of Twist. Read at start.",
-}
-
-#: Float ranges other than the default (1e-3, 1e6).
-_RANGES: dict[str, tuple[float, float]] = {
-    "move_duration_s": (0.1, MAX_MOVE_DURATION_S),  # continuous Moves (864000 s) would outlive a dead node
-    "joint_state_rate_hz": (0.0, 1000.0),  # 0 = off
-    "sportmodestate_rate_hz": (0.0, 1000.0),  # 0 = off
-    "odom_rate_hz": (0.0, 500.0),  # 0 = off
-    "battery_low_pct": (0.0, 100.0),
-    "battery_critical_pct": (0.0, 100.0),
-    "body_check_rate_hz": (1.0, 500.0),
-    "body_check_slow_rate_hz": (1.0, 500.0),
-    "user_ctrl_switch_timeout_s": (0.05, 10.0),
-    "user_ctrl_hold_kp": (0.0, MAX_KP),
-    "user_ctrl_hold_kd": (0.0, MAX_KD),
-}
-
-
-#: Renamed parameters, old name -> new name. For one release the old name is still read, so that a params
-#: file written for the previous one keeps its meaning: set, it wins over the new name, with a warning.
-RENAMED: dict[str, str] = {"cmd_vel_timeout": "cmd_vel_timeout_s", "max_aw": "max_awz"}
-
-
-def _descriptor(name: str, default: object) -> ParameterDescriptor:
-    desc = ParameterDescriptor(description=_DESCRIPTIONS[name], read_only=True)
-    if isinstance(default, bool | str):
-        pass
-    elif isinstance(default, float):
-        low, high = _RANGES.get(name, (1e-3, 1e6))
-        desc.floating_point_range = [FloatingPointRange(from_value=low, to_value=high)]
-    elif name == "dds_domain":
-        desc.integer_range = [IntegerRange(from_value=0, to_value=230, step=1)]
-    elif isinstance(default, int):
-        desc.integer_range = [IntegerRange(from_value=0, to_value=10, step=1)]
-    return desc
-
-
 def declare_settings(node: Node) -> Settings:
     """Declare every parameter (read-only: they are read once at start) and return their values.
 
     A bad value fails here, at start, with an error naming the parameter: rclpy raises for a wrong type or
     a value out of range, and this raises ValueError for a head LED look it cannot read.
     """
-    from_old_names = _read_old_names(node)
+    defaults = {f.name: f.default for f in fields(Settings)}
+    from_old_names = read_old_names(node, defaults)
     values = {}
-    for f in fields(Settings):
-        default = f.default
-        if f.name in from_old_names:  # declared with the old name's value: `ros2 param get` shows what is used
-            node.declare_parameter(f.name, from_old_names[f.name], _descriptor(f.name, default), ignore_override=True)
+    for name, default in defaults.items():
+        if name in from_old_names:  # declared with the old name's value: `ros2 param get` shows what is used
+            node.declare_parameter(name, from_old_names[name], descriptor(name, default), ignore_override=True)
         else:
-            node.declare_parameter(f.name, default, _descriptor(f.name, default))
-        values[f.name] = node.get_parameter(f.name).value
+            node.declare_parameter(name, default, descriptor(name, default))
+        values[name] = node.get_parameter(name).value
     for name in LED_PARAMETERS.values():
         try:
             LedLook.parse(values[name])
@@ -318,22 +179,3 @@ def parse_keys(text: str) -> int:
     """'L2+B' -> the remote's key mask; '' -> 0 (off). Raises ValueError naming the unknown key."""
     names = [part.strip() for part in text.split("+") if part.strip()]
     return key_mask(names) if names else 0
-
-
-def _read_old_names(node: Node) -> dict[str, object]:
-    """Declare each old name (typed, without a value); new name -> value for each one the user set, warning
-    with both names."""
-    taken: dict[str, object] = {}
-    for old, new in RENAMED.items():
-        default = next(f.default for f in fields(Settings) if f.name == new)
-        desc = _descriptor(new, default)
-        desc.description = f"Old name of {new} (read for one more release; set, it wins over {new})."
-        node.declare_parameter(old, Parameter.Type.from_parameter_value(default), desc)
-        try:
-            value = node.get_parameter(old).value
-        except ParameterUninitializedException:  # not set: nothing to take
-            continue
-        node.get_logger().warn(f"parameter {old!r} is deprecated and will be removed: rename it {new!r} "
-                               f"(taking {old}={value!r} as {new})")
-        taken[new] = value
-    return taken

@@ -1,9 +1,10 @@
 """A helper node of the mode manager with an executor and thread of its own.
 
-Blocking work (a transition that waits seconds for SelectMode) and safety work (the e-stop) must not
-share executor threads with the command streams: each gets a side node in the main node's namespace
-whose services carry the main node's names (`<main node>/set_mode`), so `ros2 service call` and
-namespace remaps work as if the main node served them.
+Blocking work (a transition that waits seconds for SelectMode) must not share threads with the command
+streams or the e-stop: the services get a side node (services.py) in the main node's namespace whose
+services carry the main node's names (`<main node>/set_mode`), so `ros2 service call` and namespace
+remaps work as if the main node served them. (The e-stop has a node of its own too, taken by a thread
+without an executor: estop.py.)
 """
 
 from __future__ import annotations

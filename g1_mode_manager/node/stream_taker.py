@@ -25,7 +25,7 @@ from rclpy.qos import QoSProfile
 from rclpy.service import Service
 from rclpy.subscription import Subscription
 
-from g1_mode_manager.node.rclpy_internals import new_wait_set, take_message, take_request
+from g1_mode_manager.node.rclpy_internals import EntityWaitSet, take_message, take_request
 
 _log = logging.getLogger(__name__)
 #: The thread looks at its stop flag at least this often (ns): a stop after SIGINT cannot use the guard.
@@ -86,25 +86,15 @@ class StreamTaker:
     def _run(self) -> None:
         context = self._node.context
         try:
-            wait_set = new_wait_set(context, subscriptions=len(self._subs), guard_conditions=1,
-                                    services=len(self._services))  # fmt: skip
+            wait_set = EntityWaitSet(context, subscriptions=self._subs,
+                                     services=[service for service, _callback in self._services], guard=self._guard)  # fmt: skip
             while not self._stop.is_set() and context.ok():
-                wait_set.clear_entities()
-                for service, _callback in self._services:
-                    wait_set.add_service(service.handle)
-                for sub in self._subs:
-                    wait_set.add_subscription(sub.handle)
-                wait_set.add_guard_condition(self._guard.handle)
-                wait_set.wait(WAIT_PERIOD_NS)
-                if self._services:  # services first: they are the e-stop's
-                    ready = wait_set.get_ready_entities("service")
-                    for service, callback in self._services:
-                        if service.handle.pointer in ready:
-                            self._take_request(service, callback)
-                ready = wait_set.get_ready_entities("subscription")
-                for sub in self._subs:
-                    if sub.handle.pointer in ready:
-                        self._take(sub)
+                ready_services, ready_subs = wait_set.wait(WAIT_PERIOD_NS)
+                for service, callback in self._services:  # services first: they are the e-stop's
+                    if service in ready_services:
+                        self._take_request(service, callback)
+                for sub in ready_subs:
+                    self._take(sub)
         except InvalidHandle:  # the node or the context went away: shutting down
             return
         except Exception as exc:  # reported, and the streams stop: never silently

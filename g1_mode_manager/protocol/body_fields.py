@@ -4,7 +4,8 @@ temperatures and the remote's bytes, decoded with ``struct`` from the fixed CDR 
 Offsets after the 4-byte encapsulation header (checked against cyclonedds' serialisation by a test): the
 IMU quaternion (w, x, y, z) and gyroscope at 16; MotorState_ i has dq at 76 + 56 i and its two int16
 temperatures (casing, winding: ``temperature[0]``, ``temperature[1]`` as Unitree's termination checks read
-them) at 88 + 56 i; ``wireless_remote`` (40 bytes) at 2028. Other encodings fall back to deserialising.
+them) at 88 + 56 i; ``wireless_remote`` (40 bytes) at 2028. Other encodings are deserialised by
+``protocol.lowstate_fields.decode_body_fields``: this module imports no DDS, so that the core can name the fields.
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ import struct
 from dataclasses import dataclass
 from typing import Final
 
-from g1_mode_manager.protocol.idl import LowState_
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
 REMOTE_BYTES: Final = 40
@@ -41,22 +41,12 @@ _REMOTE_AT: Final = 4 + 2028
 _LITTLE_ENDIAN_ENCODINGS: Final = (0x01, 0x07)
 
 
-def decode_body_fields(data: bytes) -> BodyFields:
-    if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= _REMOTE_AT + REMOTE_BYTES:
-        imu = _IMU.unpack_from(data, _IMU_AT)
-        temperatures = _TEMPERATURE.unpack_from(data, _TEMPERATURE_AT)
-        return BodyFields(quaternion=imu[0:4], gyroscope=imu[4:7], dq=_DQ.unpack_from(data, _DQ_AT),
-                          casing_c=temperatures[0::2], winding_c=temperatures[1::2],
-                          remote=bytes(data[_REMOTE_AT:_REMOTE_AT + REMOTE_BYTES]))  # fmt: skip
-    return decode_body_fields_slowly(data)
-
-
-def decode_body_fields_slowly(data: bytes) -> BodyFields:
-    """The same by full deserialisation: any encoding cyclonedds reads."""
-    msg = LowState_.deserialize(data)
-    motors = msg.motor_state[:NUM_JOINTS]
-    casing, winding = zip(*((int(m.temperature[0]), int(m.temperature[1])) for m in motors), strict=True)
-    imu = msg.imu_state
-    return BodyFields(tuple(map(float, imu.quaternion)), tuple(map(float, imu.gyroscope)),  # type: ignore[arg-type]
-                      tuple(float(m.dq) for m in motors), casing, winding,
-                      bytes(int(b) & 0xFF for b in msg.wireless_remote))  # fmt: skip
+def unpack_body_fields(data: bytes) -> BodyFields | None:
+    """The fields of a little-endian serialisation; None for any other encoding (deserialise it instead)."""
+    if data[0] != 0 or data[1] not in _LITTLE_ENDIAN_ENCODINGS or len(data) < _REMOTE_AT + REMOTE_BYTES:
+        return None
+    imu = _IMU.unpack_from(data, _IMU_AT)
+    temperatures = _TEMPERATURE.unpack_from(data, _TEMPERATURE_AT)
+    return BodyFields(quaternion=imu[0:4], gyroscope=imu[4:7], dq=_DQ.unpack_from(data, _DQ_AT),
+                      casing_c=temperatures[0::2], winding_c=temperatures[1::2],
+                      remote=bytes(data[_REMOTE_AT:_REMOTE_AT + REMOTE_BYTES]))  # fmt: skip

@@ -2,7 +2,7 @@
 
 cyclonedds-python has no public way to write or take samples as ready-made CDR bytes, to keep the
 listener an entity holds alive, to delete an entity before the garbage collector does, to read a type's
-minimal identifier, or to choose the XTypes kinds of uint8/int8 (the robot's Cyclone DDS 0.10 uses
+minimal and complete identifiers, or to choose the XTypes kinds of uint8/int8 (the robot's Cyclone DDS 0.10 uses
 others); the product's hot paths, its robot compatibility and the sim need all of them. Every other
 module calls the functions here instead of touching cyclonedds' private names, so a cyclonedds
 upgrade that moves one breaks this module only, and ``test/sdk/test_cyclone_internals.py`` names what
@@ -33,6 +33,14 @@ def minimal_type_hash(idl_type: type) -> bytes:
 
     info, _ = XTBuilder.process_type(idl_type)
     return bytes(info.minimal.typeid_with_size.type_id.value)
+
+
+def complete_type_id(idl_type: type) -> bytes:
+    """The value of an IDL type's complete XTypes identifier: what a discovered endpoint's ``type_id`` holds."""
+    from cyclonedds.idl._xt_builder import XTBuilder
+
+    info, _ = XTBuilder.process_type(idl_type)
+    return bytes(info.complete.typeid_with_size.type_id.value)
 
 
 def take_serialized(reader: Any, max_samples: int) -> list[tuple[bytes, Any]]:

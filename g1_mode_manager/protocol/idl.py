@@ -1,4 +1,5 @@
-"""unitree_hg message types: the SDK's own plus SportModeState_, which no Python build ships."""
+"""The message types: unitree_hg's own plus SportModeState_, which no Python build ships, and unitree_go's
+SportModeState_ that the G1 publishes its odometry in (protocol.odom_fields)."""
 
 from dataclasses import dataclass
 
@@ -6,6 +7,7 @@ import cyclonedds.idl as idl
 import cyclonedds.idl.annotations as annotate
 import cyclonedds.idl.types as types
 from unitree_sdk2py.idl.unitree_api.msg.dds_ import Request_, Response_
+from unitree_sdk2py.idl.unitree_go.msg.dds_ import SportModeState_ as OdomModeState_
 from unitree_sdk2py.idl.unitree_hg.msg.dds_ import (  # re-exported: import message types from here
     BmsState_,
     IMUState_,
@@ -22,6 +24,7 @@ __all__ = [
     "LowState_",
     "MotorCmd_",
     "MotorState_",
+    "OdomModeState_",
     "Request_",
     "Response_",
     "SportModeState_",

@@ -1,4 +1,5 @@
-"""Joint states and IMU of one serialised rt/lowstate, decoded only when someone publishes them.
+"""Joint states and IMU of one serialised rt/lowstate, decoded only when someone publishes them; and the
+body checks' fields (protocol.body_fields) of one, in any encoding.
 
 rt/lowstate arrives at 500 Hz; the reader keeps the raw bytes of the latest sample, and the node
 decodes them at its own (lower) publishing rate. A struct path reads the fixed CDR layout;
@@ -11,6 +12,7 @@ import struct
 from dataclasses import dataclass
 from typing import Final
 
+from g1_mode_manager.protocol.body_fields import BodyFields, unpack_body_fields
 from g1_mode_manager.protocol.idl import LowState_
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
@@ -60,3 +62,20 @@ def decode_fields_slowly(data: bytes) -> LowStateFields:
         gyroscope=tuple(float(v) for v in imu_state.gyroscope),  # type: ignore[arg-type]
         accelerometer=tuple(float(v) for v in imu_state.accelerometer),  # type: ignore[arg-type]
     )
+
+
+def decode_body_fields(data: bytes) -> BodyFields:
+    """By the struct layout (protocol.body_fields), or by full deserialisation for other encodings."""
+    fields = unpack_body_fields(data)
+    return decode_body_fields_slowly(data) if fields is None else fields
+
+
+def decode_body_fields_slowly(data: bytes) -> BodyFields:
+    """The same by full deserialisation: any encoding cyclonedds reads."""
+    msg = LowState_.deserialize(data)
+    motors = msg.motor_state[:NUM_JOINTS]
+    casing, winding = zip(*((int(m.temperature[0]), int(m.temperature[1])) for m in motors), strict=True)
+    imu = msg.imu_state
+    return BodyFields(tuple(map(float, imu.quaternion)), tuple(map(float, imu.gyroscope)),  # type: ignore[arg-type]
+                      tuple(float(m.dq) for m in motors), casing, winding,
+                      bytes(int(b) & 0xFF for b in msg.wireless_remote))  # fmt: skip

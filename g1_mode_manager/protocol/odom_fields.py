@@ -3,7 +3,8 @@
 The G1 publishes its estimator's odometry in the Go2's message type (not unitree_hg's SportModeState_ of
 rt/sportmodestate), in high-level mode only and on recent firmware. Every field is fixed-size, so one
 struct reads and writes the whole CDR body: the sim packs it at 500 Hz and the node unpacks it, neither
-through cyclonedds' per-field serialiser. Other encodings fall back to that serialiser.
+through cyclonedds' per-field serialiser. Other encodings are deserialised by the SDK adapter
+(``sdk.odom_reader.decode_odom``): this module imports no DDS, so that the core can name the fields.
 """
 
 from __future__ import annotations
@@ -12,9 +13,7 @@ import struct
 from dataclasses import dataclass
 from typing import Final
 
-from unitree_sdk2py.idl.unitree_go.msg.dds_ import SportModeState_ as OdomModeState_
-
-__all__ = ["OdomFields", "OdomModeState_", "decode_odom", "encode_odom"]
+__all__ = ["OdomFields", "encode_odom", "unpack_odom"]
 
 # stamp (sec, nanosec), error_code, imu (quaternion w,x,y,z, gyroscope, accelerometer, rpy, temperature), mode,
 # progress, gait_type, foot_raise_height, position[3], body_height, velocity[3], yaw_speed, range_obstacle[4],
@@ -48,13 +47,10 @@ def encode_odom(f: OdomFields) -> bytes:
                                 *_TAIL)  # fmt: skip
 
 
-def decode_odom(data: bytes) -> OdomFields:
-    if len(data) >= 4 + _BODY.size and data[1] in _LITTLE_ENDIAN_ENCODINGS:
-        v = _BODY.unpack_from(data, 4)
-        return OdomFields(stamp_s=v[0] + v[1] * 1e-9, quaternion=v[3:7], gyroscope=v[7:10], rpy=v[13:16],
-                          position=v[21:24], body_height=v[24], velocity=v[25:28], yaw_speed=v[28])  # fmt: skip
-    m = OdomModeState_.deserialize(data)
-    imu = m.imu_state
-    return OdomFields(stamp_s=m.stamp.sec + m.stamp.nanosec * 1e-9, position=tuple(m.position),
-                      velocity=tuple(m.velocity), yaw_speed=m.yaw_speed, quaternion=tuple(imu.quaternion),
-                      gyroscope=tuple(imu.gyroscope), rpy=tuple(imu.rpy), body_height=m.body_height)  # type: ignore[arg-type]
+def unpack_odom(data: bytes) -> OdomFields | None:
+    """The fields of a little-endian serialisation; None for any other encoding (deserialise it instead)."""
+    if len(data) < 4 + _BODY.size or data[1] not in _LITTLE_ENDIAN_ENCODINGS:
+        return None
+    v = _BODY.unpack_from(data, 4)
+    return OdomFields(stamp_s=v[0] + v[1] * 1e-9, quaternion=v[3:7], gyroscope=v[7:10], rpy=v[13:16],
+                      position=v[21:24], body_height=v[24], velocity=v[25:28], yaw_speed=v[28])  # fmt: skip

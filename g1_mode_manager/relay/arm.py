@@ -8,12 +8,13 @@ from collections.abc import Callable, Sequence
 
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.arm_ramp import ArmWeightRamp, robot_accepts_arm_sdk
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.joint_commands import JointCommandError, validate_arm_targets
+from g1_mode_manager.core.machine.gate import ForwardDecision
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
 #: Ramp-out waits (leaving HIGH_LEVEL, shutdown) give up this long after the ramp should have ended.
@@ -44,7 +45,9 @@ class ArmRelay:
         self._kp = kp
         self._kd = kd
         self._lock = threading.Lock()
-        self._targets: dict[int, float] = {}  # guarded by _lock: the user's latest targets
+        self._targets: dict[int, float] = {}  # the user's latest targets, as the gate let them in (tick thread only)
+        self._untaken: dict[int, float] = {}  # guarded by _lock: targets taken since the last frame's decision
+        self._untaken_count = 0  # guarded by _lock: the commands that brought them
         self._start: dict[int, float] = {}  # measured pose at ramp start (tick thread only)
         self._blend = 0.0  # how far targets moved from the start pose toward the user's (tick thread only)
         self._link_lost = False
@@ -58,13 +61,11 @@ class ArmRelay:
         return self._ramp.weight
 
     def submit(self, names: Sequence[str], positions: Sequence[float]) -> str | None:
-        """Take arm targets; returns an error text if refused (nothing changes then)."""
+        """Take arm targets; returns an error text if invalid (nothing changes then).
+
+        The mode is not asked here: the next frame's forward gate decides, and drops (and counts) the targets
+        taken since the last frame when it refuses."""
         self._events.count("arm_cmd_received")
-        if not self._gate.allows_arm_commands():
-            self._events.count("arm_cmd_dropped")
-            self._events.log("warn", "arm_dropped",
-                             f"arm_cmd dropped: mode is {self._gate.mode.name}, arm commands pass only in HIGH_LEVEL")
-            return f"mode is {self._gate.mode.name}"
         try:
             targets = validate_arm_targets(names, positions)
         except JointCommandError as exc:
@@ -72,7 +73,8 @@ class ArmRelay:
             self._events.log("warn", "arm_rejected", f"arm_cmd rejected: {exc}")
             return str(exc)
         with self._lock:
-            self._targets.update(targets)
+            self._untaken.update(targets)
+            self._untaken_count += 1
         self._watchdog.feed()
         return None
 
@@ -122,45 +124,64 @@ class ArmRelay:
                 self._cond.notify_all()
 
     def _tick(self, dt_s: float) -> None:
+        # one decision per frame: whether to ramp in, hold, ramp out or send nothing follows from it
+        with self._gate.forwarding(modes.allows_arm_commands) as decision:
+            dropped = self._take_targets(decision.allowed)
+            why_not = self._frame(decision, dt_s)
+        if why_not is not None:  # logged after the gate: it covers the decision and the write only
+            self._events.log(*why_not)
+        if dropped:
+            self._events.count("arm_cmd_dropped", dropped)
+            self._events.log("warn", "arm_dropped", f"arm_cmd dropped: mode is {decision.mode.name}, "
+                             "arm commands pass only in HIGH_LEVEL")
+
+    def _take_targets(self, allowed: bool) -> int:
+        """The targets taken since the last frame join the user's when the gate allows; otherwise they and
+        their stream are forgotten. Returns how many commands were dropped."""
+        with self._lock:
+            count, self._untaken_count = self._untaken_count, 0
+            if allowed:
+                self._targets.update(self._untaken)
+            self._untaken.clear()
+        if allowed or not count:
+            return 0
+        self._watchdog.reset()
+        return count
+
+    def _frame(self, decision: ForwardDecision, dt_s: float) -> tuple[str, str, str] | None:
+        """At most one frame, under the gate that judged ``decision``; returns a log line (level, key, text)
+        saying why a weight above 0 could not be sent, if so."""
         weight = self._ramp.weight
-        if self._gate.mode is Mode.EMERGENCY:  # the e-stop's Damp owns the robot: no arm_sdk frame at all
+        if decision.mode is Mode.EMERGENCY:  # the e-stop's Damp owns the robot: no arm_sdk frame at all
             if weight > 0.0:
                 self._restart(clear_targets=True)
-            return
-        if not self._link.link_ok():
-            if weight > 0.0 and not self._link_lost:
-                self._events.log("error", "arm_link",
-                                 f"robot link lost: arm_sdk weight frozen at {weight:.2f} (the robot holds it)")
+            return None
+        if not self._link.link_ok(decision.mode):
+            lost_now = weight > 0.0 and not self._link_lost
             self._link_lost = True
-            return
+            return ("error", "arm_link", f"robot link lost: arm_sdk weight frozen at {weight:.2f} (the robot "
+                    "holds it)") if lost_now else None
         self._link_lost = False
         state = self._port.sport_state()
         if state is None or not robot_accepts_arm_sdk(state.fsm_id, state.fsm_mode):
-            if weight > 0.0:
-                fsm = None if state is None else state.fsm_id
-                self._events.log("warn", "arm_not_accepted",
-                                 f"robot fsm {fsm} does not take arm_sdk: weight restarts from 0")
             self._restart(clear_targets=False)
-            return
-        wanted = (not self._closing.is_set() and self._out_wanted == 0 and self._gate.allows_arm_commands()
+            fsm = None if state is None else state.fsm_id
+            return ("warn", "arm_not_accepted",
+                    f"robot fsm {fsm} does not take arm_sdk: weight restarts from 0") if weight > 0.0 else None
+        wanted = (decision.allowed and not self._closing.is_set() and self._out_wanted == 0
                   and not self._watchdog.expired())
         if wanted:
             if weight == 0.0 and not self._capture_start():
-                return
-            with self._gate.forwarding(modes.allows_arm_commands) as allowed:
-                if allowed:
-                    self._send(True, dt_s)
-                    return
-        if weight > 0.0:
-            with self._gate.ramping_out() as allowed:
-                if allowed:
-                    self._send(False, dt_s)
+                return None
+            self._send(True, dt_s)
+        elif weight > 0.0 and modes.allows_arm_ramp_out(decision.mode):
+            self._send(False, dt_s)
+        return None
 
     def _send(self, engage: bool, dt_s: float) -> None:
         weight = self._ramp.propose(engage, dt_s)
         blend = max(self._blend, weight) if engage else self._blend
-        with self._lock:
-            targets = dict(self._targets)
+        targets = self._targets
         frame = [MotorCommand(q=self._start[m] + blend * (targets.get(m, self._start[m]) - self._start[m]),
                               kp=self._kp, kd=self._kd) for m in ARM_SDK_JOINTS]
         try:
@@ -188,5 +209,4 @@ class ArmRelay:
         self._ramp.restart()
         self._blend = 0.0
         if clear_targets:
-            with self._lock:
-                self._targets.clear()
+            self._targets.clear()

@@ -3,7 +3,7 @@ mode machine. ROS-free; the node runs ``step`` on a thread of its own and reads 
 
 - Every step takes the freshest state sample (rt/lowstate while it is received, at ``fast_period_s``;
   otherwise rt/lf/lowstate at ``slow_period_s``, so an idle HIGH_LEVEL never needs the 500 Hz stream),
-  decodes the few fields the checks read and evaluates them (``BodyMonitor``).
+  takes the few fields the checks read (the port decoded them) and evaluates them (``BodyMonitor``).
 - A FAULT reaction enters FAULT (the machine's protective stop never waits for the robot); a HOLD holds
   motion in the mode; WARN is only reported.
 - The remote: a held e-stop combination (default L2+B) e-stops in every mode, once per press; the optional
@@ -20,11 +20,10 @@ from typing import Protocol
 from g1_mode_manager.core.body.checks import UPRIGHT_FSM_IDS, Reaction
 from g1_mode_manager.core.body.monitor import BodyMonitor
 from g1_mode_manager.core.body.readings import BodyReadings, readings_of
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus, Outcome
-from g1_mode_manager.protocol.body_fields import decode_body_fields
-from g1_mode_manager.relay.events import RelayEvents
 
 #: A remote frame older than this says nothing about the keys held now (rt/lowstate: 2 ms; lf: 50 ms), s.
 REMOTE_FRESH_S = 0.2
@@ -77,7 +76,7 @@ class BodyWatch:
         if sample is None:
             readings = BodyReadings(soc_pct=soc)
         else:
-            fields = decode_body_fields(sample.data)
+            fields = sample.fields
             readings = readings_of(fields, state_age_s=sample.age_s, soc_pct=soc)
             if sample.age_s <= REMOTE_FRESH_S:
                 with self._lock:

@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable
 
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import PendingReply, RobotError, RobotPort
 from g1_mode_manager.core.velocity import (
@@ -29,7 +30,6 @@ from g1_mode_manager.core.velocity import (
     sanitize,
 )
 from g1_mode_manager.core.watchdog import Watchdog
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
 #: While the command is still ramping, the sender steps this often (and this is the limiter's largest dt).
@@ -76,6 +76,7 @@ class CmdVelRelay:
         self._on_acknowledged = on_acknowledged  # (the Move, when it was sent): e.g. a walk judge
         self._clock = clock
         self._target = ZERO
+        self._untaken = 0  # guarded by _lock: commands taken since the last step (dropped if the gate refuses)
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._stopped = threading.Event()
@@ -93,15 +94,12 @@ class CmdVelRelay:
         self._tokens_at = clock()
 
     # --- what the node calls -------------------------------------------------------------------
-    def submit(self, vx: float, vy: float, wz: float) -> Sanitized | None:
-        """Take a new command from /cmd_vel (never blocks); returns what will be sent, or None if dropped."""
+    def submit(self, vx: float, vy: float, wz: float) -> Sanitized:
+        """Take a new command from /cmd_vel (never blocks); returns what the sender will offer the gate.
+
+        The mode is not asked here: the sender's step asks the forward gate, which decides, and drops (and
+        counts) every command taken since its last step when the gate refuses."""
         self._events.count("cmd_vel_received")
-        if not self._gate.allows_cmd_vel():
-            self._events.count("cmd_vel_dropped")
-            mode = self._gate.mode.name
-            self._events.log("warn", "cmd_vel_dropped",
-                             f"cmd_vel dropped: mode is {mode}, velocity commands pass only in HIGH_LEVEL")
-            return None
         result = sanitize(vx, vy, wz, self._limits)
         if result.rejected:
             self._events.count("cmd_vel_rejected")
@@ -112,6 +110,7 @@ class CmdVelRelay:
         with self._lock:
             changed = result.velocity != self._target
             self._target = result.velocity
+            self._untaken += 1
         restarted = self._watchdog.expired()
         self._watchdog.feed()
         if changed or restarted:  # a repeat of a running command is the keep-alive tick's business
@@ -223,37 +222,52 @@ class CmdVelRelay:
         return max(0.0, due - now)
 
     def step(self) -> None:
-        """One decision with the latest command: at most one Move or StopMove."""
-        if not (self._gate.allows_cmd_vel() and self._link.link_ok()):
+        """One decision with the latest command: at most one Move or StopMove.
+
+        What to send is planned first without asking the mode; the forward gate then decides, once, and its
+        decision (the mode it judged) is what the link check and a drop's reason take."""
+        with self._lock:
+            target = self._target
+            untaken, self._untaken = self._untaken, 0
+        now = self._clock()
+        v, rest_why = self._plan(target, now)
+        reply = None
+        with self._gate.forwarding(modes.allows_cmd_vel) as decision:
+            forward = decision.allowed and self._link.link_ok(decision.mode)
+            if forward and v is not None:
+                reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
+                self._move_in_flight = reply is not None
+        if not forward:
             self._watchdog.reset()
             with self._lock:
                 self._target = ZERO
+            if not decision.allowed and untaken:
+                self._events.count("cmd_vel_dropped", untaken)
+                self._events.log("warn", "cmd_vel_dropped", f"cmd_vel dropped: mode is {decision.mode.name}, "
+                                 "velocity commands pass only in HIGH_LEVEL")
             self._rest("forwarding stopped")
             return
-        if self._watchdog.expired():
-            self._rest(f"no cmd_vel for {self._watchdog.timeout_s} s")
-            return
-        with self._lock:
-            target = self._target
-        now = self._clock()
-        dt = self._ramp_s if self._last_ack is None else now - self._last_ack
-        v = self._limiter.propose(target, dt)
-        if in_dead_band(v) and in_dead_band(target):
-            self._rest("command below the robot's dead band (0.1)")
-            return
-        if self._last_ack is not None and v == self._limiter.current and now - self._last_send < self._period_s:
-            return  # the robot runs exactly this already: only the keep-alive repeats it (a 100 Hz stream of
-            # one value costs cmd_vel_rate_hz Moves a second, not max_rate_hz)
-        with self._gate.forwarding(modes.allows_cmd_vel) as allowed:
-            if not allowed:
-                return
-            reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
-            self._move_in_flight = reply is not None
-        if reply is not None:
+        if rest_why is not None:
+            self._rest(rest_why)
+        elif reply is not None:
             try:
                 self._settle_move(reply, v, now)
             finally:
                 self._move_in_flight = False
+
+    def _plan(self, target: Velocity, now: float) -> tuple[Velocity | None, str | None]:
+        """(the Move to write, None) or (None, why to rest instead); (None, None): nothing due, the robot runs
+        exactly this already and only the keep-alive repeats it (a 100 Hz stream of one value costs
+        cmd_vel_rate_hz Moves a second, not max_rate_hz)."""
+        if self._watchdog.expired():
+            return None, f"no cmd_vel for {self._watchdog.timeout_s} s"
+        dt = self._ramp_s if self._last_ack is None else now - self._last_ack
+        v = self._limiter.propose(target, dt)
+        if in_dead_band(v) and in_dead_band(target):
+            return None, "command below the robot's dead band (0.1)"
+        if self._last_ack is not None and v == self._limiter.current and now - self._last_send < self._period_s:
+            return None, None
+        return v, None
 
     def _rest(self, why: str) -> None:
         """Nothing to send: a StopMove if one is owed, and the limiter starts again from standstill."""

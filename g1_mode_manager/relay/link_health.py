@@ -49,10 +49,10 @@ class LinkHealth:
             return LinkReport(False, True, low, sport, f"rt/sportmodestate {text}")
         return LinkReport(True, True, low, sport, "ok")
 
-    def link_ok(self) -> bool:
-        """``report().ok`` without the report: asked before every forwarded frame (500 Hz in LOW_LEVEL), it
-        reads only the stream that decides (rt/sportmodestate only in HIGH_LEVEL)."""
-        mode = self._gate.mode
+    def link_ok(self, mode: Mode) -> bool:
+        """``report().ok`` without the report, for ``mode``: the one the forward gate judged, handed on so that
+        a frame's mode is read once. Asked under the gate before every forwarded frame (500 Hz in LOW_LEVEL),
+        it reads only the stream that decides (rt/sportmodestate only in HIGH_LEVEL)."""
         if mode is Mode.UNINITIALIZED:
             return False
         if mode is not Mode.HIGH_LEVEL or self._port.lowstate_receiving():

@@ -8,11 +8,11 @@ import time
 from collections.abc import Callable, Sequence
 
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
+from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
 #: Damping frames written at once when LOW_LEVEL is left: more than one, so a lost frame does not leave
@@ -39,7 +39,6 @@ class LowCmdRelay:
         self._service_active = service_active
         self._deadman = deadman
         self._port = port
-        self._send: Callable[[Sequence[MotorCommand]], None] = port.write_lowcmd  # rt/lowcmd: the release path
         self._gate = gate
         self._link = link
         self._events = events
@@ -54,12 +53,6 @@ class LowCmdRelay:
                kp: Sequence[float], kd: Sequence[float]) -> str | None:
         """Forward one joint command; returns an error text if refused."""
         self._events.count("lowcmd_received")
-        if not self._gate.allows_low_level_commands():
-            return self._drop(f"mode is {self._gate.mode.name}")
-        if not self._link.link_ok():
-            self._events.count("lowcmd_dropped")
-            self._events.log("error", "lowcmd_link", "lowcmd dropped: robot link lost")
-            return "robot link lost"
         try:
             frame = validate_lowcmd(names, q, dq, tau, kp, kd)
         except JointCommandError as exc:
@@ -67,15 +60,21 @@ class LowCmdRelay:
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
             return str(exc)
         deadman = self._deadman()
-        with self._gate.forwarding(modes.allows_low_level_commands) as allowed:
-            if allowed and deadman:
+        # the gate's decision is the only look at the mode: the link is judged for the mode it saw
+        with self._gate.forwarding(modes.allows_low_level_commands) as decision:
+            linked = decision.allowed and self._link.link_ok(decision.mode)
+            if linked and deadman:
                 self._watchdog.feed()
                 return self._write(frame, "lowcmd_sent")
-        if allowed:
-            self._events.count("lowcmd_deadman_released")
-            self._write(DAMPING, "damping_frames_sent")
-            return "dead-man key released: a damping frame was sent instead"
-        return self._drop(f"mode is {self._gate.mode.name}")
+        if not decision.allowed:
+            return self._drop(f"mode is {decision.mode.name}")
+        if not linked:
+            self._events.count("lowcmd_dropped")
+            self._events.log("error", "lowcmd_link", "lowcmd dropped: robot link lost")
+            return "robot link lost"
+        self._events.count("lowcmd_deadman_released")
+        self._write(DAMPING, "damping_frames_sent")
+        return "dead-man key released: a damping frame was sent instead"
 
     def on_leave(self, source: Mode, target: Mode) -> None:
         """Leave listener of the mode machine: damp before the next mode's first robot call."""
@@ -120,7 +119,7 @@ class LowCmdRelay:
 
     def tick(self, _dt_s: float) -> None:
         if self._gate.allows_low_level_commands():
-            if self._watchdog.expired() or not self._link.link_ok() or not self._deadman():
+            if self._watchdog.expired() or not self._link.link_ok(Mode.LOW_LEVEL) or not self._deadman():
                 self._write(DAMPING, "damping_frames_sent")
             return
         if self._held_in_low_level():  # a body check holds motion: the user's controller is cut off
@@ -132,6 +131,10 @@ class LowCmdRelay:
         self._events.count("lowcmd_dropped")
         self._events.log("warn", "lowcmd_dropped", f"lowcmd dropped: {why}, joint commands pass only in LOW_LEVEL")
         return why
+
+    def _send(self, frame: JointFrame) -> None:
+        """rt/lowcmd: the release path (the user_ctrl path's relay writes rt/user_lowcmd)."""
+        self._port.write_lowcmd(frame)
 
     def _write(self, frame: JointFrame, counter: str) -> str | None:
         try:

@@ -24,7 +24,7 @@ HOLD_S = 2.0
 
 class LowStateDemand:
     def __init__(self, port: RobotPort, machine: ModeMachine, arms_busy: Callable[[], bool],
-                 link_ok: Callable[[], bool], *, always: bool, hold_s: float = HOLD_S,
+                 link_ok: Callable[[Mode], bool], *, always: bool, hold_s: float = HOLD_S,
                  clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
         self._port = port
         self._machine = machine
@@ -40,7 +40,7 @@ class LowStateDemand:
         if self._always or self._arms_busy() or (target is not None and target is not Mode.HIGH_LEVEL):
             return True
         status = self._machine.status()
-        return status.mode is not Mode.HIGH_LEVEL or status.transition_in_progress or not self._link_ok()
+        return status.mode is not Mode.HIGH_LEVEL or status.transition_in_progress or not self._link_ok(status.mode)
 
     def update(self, target: Mode | None = None) -> None:
         """Subscribe at once when needed (``target``: a transition about to start); unsubscribe after hold_s."""

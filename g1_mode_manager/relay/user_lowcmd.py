@@ -34,13 +34,15 @@ class UserLowCmdRelay(LowCmdRelay):
     def __init__(self, *args: object, user_ctrl: UserCtrlLink, silence: SilenceReaction,
                  hand_back: Callable[[], Outcome], hold_kp: float, hold_kd: float, **kwargs: object) -> None:  # fmt: skip
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-        self._send = self._port.write_user_lowcmd  # type: ignore[attr-defined]
         self._uc = user_ctrl
         self._silence = silence
         self._hand_back = hand_back
         self._hold_gains = (hold_kp, hold_kd)
         self._handing_back = False  # guarded by _lock
         self._next_hand_back = float("-inf")
+
+    def _send(self, frame: JointFrame) -> None:
+        self._port.write_user_lowcmd(frame)  # type: ignore[attr-defined]
 
     def _hold_here(self) -> JointFrame:
         """The robot held where it is now (the previous filler if the pose is unknown)."""
@@ -74,7 +76,7 @@ class UserLowCmdRelay(LowCmdRelay):
     def tick(self, _dt_s: float) -> None:
         uc = self._uc
         if self._gate.allows_low_level_commands():
-            if not self._link.link_ok() or not self._deadman():
+            if not self._link.link_ok(Mode.LOW_LEVEL) or not self._deadman():
                 self._write(DAMPING, "damping_frames_sent")
                 return
             timeout = self._watchdog.timeout_s

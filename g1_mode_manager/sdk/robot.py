@@ -19,10 +19,10 @@ from g1_mode_manager.core.port import MotorCommand, OdomSample, PendingReply, Ro
 from g1_mode_manager.core.user_ctrl import roll_pitch
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
-from g1_mode_manager.protocol.body_fields import decode_body_fields
 from g1_mode_manager.protocol.dds import init_channels
 from g1_mode_manager.protocol.fsm import InternalCtrl
 from g1_mode_manager.protocol.idl import SportModeState_
+from g1_mode_manager.protocol.lowstate_fields import decode_body_fields
 from g1_mode_manager.sdk.arm_sdk import ArmSdkWriter
 from g1_mode_manager.sdk.battery_reader import BatteryReader
 from g1_mode_manager.sdk.loco_client import LocoClient
@@ -270,15 +270,15 @@ class UnitreeRobot:
         return None if snapshot is None else (snapshot.data, count)
 
     def state_sample(self) -> StateSample | None:
-        best: StateSample | None = None
+        best: tuple[bytes, float, bool] | None = None  # the freshest sample's data, age and stream
         now = time.monotonic()
         for reader, low_rate in ((self._lowstate, False), (self._lf_lowstate, True)):
-            if reader is None or (best is not None and best.age_s < FRESH_STATE_S):
+            if reader is None or (best is not None and best[1] < FRESH_STATE_S):
                 continue  # a sample of the 500 Hz stream this fresh: the 20 Hz one cannot be newer
             snapshot, stamp, _ = reader.latest()
-            if snapshot is not None and (best is None or now - stamp < best.age_s):
-                best = StateSample(snapshot.data, now - stamp, low_rate)
-        return best
+            if snapshot is not None and (best is None or now - stamp < best[1]):
+                best = (snapshot.data, now - stamp, low_rate)
+        return None if best is None else StateSample(decode_body_fields(best[0]), best[1], best[2])
 
     def battery_soc(self) -> tuple[float, float] | None:
         return None if self._battery is None else self._battery.soc()

@@ -7,12 +7,12 @@ from fakes.fake_robot_port import FakeRobotPort
 from fakes.lowstate_bytes import lowstate_bytes
 from fakes.machine_rig import Rig
 from g1_mode_manager.core.body.monitor import BodyMonitor
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
 from g1_mode_manager.protocol.remote import key_mask
 from g1_mode_manager.relay.body_watch import BodyWatch
-from g1_mode_manager.relay.events import RelayEvents
 from support.mode_manager import wait_until
 
 L2_B = key_mask(("L2", "B"))

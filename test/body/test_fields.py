@@ -6,7 +6,7 @@ import random
 
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_, unitree_hg_msg_dds__LowState_
 
-from g1_mode_manager.protocol.body_fields import decode_body_fields, decode_body_fields_slowly
+from g1_mode_manager.protocol.lowstate_fields import decode_body_fields, decode_body_fields_slowly
 from g1_mode_manager.protocol.remote import RemoteState, decode_remote, encode_remote
 from g1_mode_manager.sdk.battery_reader import decode_soc
 

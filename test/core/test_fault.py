@@ -41,8 +41,8 @@ def test_nothing_passes_in_fault_and_set_mode_is_refused_with_the_faults() -> No
     m = rig.machine
     assert not (m.allows_cmd_vel() or m.allows_arm_commands() or m.allows_loco_commands()
                 or m.allows_low_level_commands())
-    with m.ramping_out() as allowed:
-        assert not allowed  # nothing but damping after a protective stop
+    with m.forwarding(modes.allows_arm_commands) as decision:
+        assert not decision.allowed and not modes.allows_arm_ramp_out(decision.mode)  # nothing but damping
     for target in (ID, HI, LO):
         outcome = m.request(target)
         assert outcome.refused and m.mode is FA
@@ -159,10 +159,9 @@ def test_a_hold_stops_motion_keeps_the_mode_and_lets_damp_and_ramp_out_pass() ->
     m.hold(("winding_overheat: 121.00 °C > 120",))
     assert m.mode is HI and m.status().holds
     assert not (m.allows_cmd_vel() or m.allows_arm_commands() or m.allows_loco_commands())
-    with m.forwarding(modes.allows_cmd_vel) as allowed:
-        assert not allowed
-    with m.ramping_out() as allowed:
-        assert allowed  # the arm weight ramps out
+    with m.forwarding(modes.allows_cmd_vel) as decision:
+        assert not decision.allowed
+        assert modes.allows_arm_ramp_out(decision.mode)  # the arm weight ramps out
     with m.robot_call(modes.allows_loco_commands) as allowed:
         assert not allowed
     with m.robot_call(lambda mode: mode is HI, stopping=True) as allowed:

@@ -639,8 +639,8 @@ def test_a_relay_send_held_past_the_forward_wait_lands_before_the_sequences_damp
     before_send: list[str] = []
 
     def relay_send() -> None:
-        with rig.machine.forwarding(lambda mode: mode is HI) as allowed:
-            assert allowed
+        with rig.machine.forwarding(lambda mode: mode is HI) as decision:
+            assert decision.allowed and decision.mode is HI
             inside.set()
             finish.wait(5.0)  # the relay thread stalls mid-send, past the e-stop's 50 ms wait
             before_send.extend(rig.robot.names())
@@ -661,3 +661,13 @@ def test_a_relay_send_held_past_the_forward_wait_lands_before_the_sequences_damp
     estop.join(5)
     assert "damp" not in before_send and "damp" in rig.robot.names()  # the Damp came after the send
     assert out[0].success and rig.robot.damped
+
+
+@pytest.mark.parametrize("mode", [HI, LO])
+def test_the_forward_gate_hands_over_what_it_judged_and_is_never_mistaken_for_a_bool(mode) -> None:
+    rig = make_rig(service=RELEASED if mode is LO else ACTIVE)
+    rig.bring_to(mode)
+    with rig.machine.forwarding(modes.allows_cmd_vel) as decision:
+        assert decision.allowed == (mode is HI) and decision.mode is mode
+        with pytest.raises(TypeError, match="allowed"):
+            bool(decision)  # `if decision:` would pass in every mode

@@ -162,7 +162,7 @@ class _Stacks:
         ros = RosClient()
         self._clients.append(ros)
         ros.wait_node_answers()
-        sim = shared_sim_status()  # SDK clients must live for the whole process (see support.sim_bridge)
+        sim = shared_sim_status()  # SDK clients must live for the whole process (see harness.sim_bridge)
         sim.wait_ready(15.0)
         stack = Stack(bridge, node, ros, sim, SimRecord(record))
         stack.match_estop()

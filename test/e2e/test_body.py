@@ -10,7 +10,6 @@ or the injection's).
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 
@@ -24,18 +23,16 @@ from g1_mode_manager.protocol.motors import JOINT_NAMES
 from g1_sim.physics.model import DEFAULT_POSE
 from support.mode_manager import wait_until
 from support.sim_record import damped, is_damp, of_kind, requests, states, velocity_of
+from support.timing import (
+    BODY_SAMPLE_S,
+    HIGH_LEVEL_DAMP_S,
+    LOW_LEVEL_REACTION_S,
+    REMOTE_REACTION_S,
+    check_latency,
+)
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
-#: From the condition becoming true on the robot to the first damping frame it received, in LOW_LEVEL; and from
-#: L2+B pressed on the remote to the first damping frame. The goals are 50 ms and 100 ms: `make body-latency`
-#: runs this file alone and holds the tests to them. In the full suite three workers load both cores, and a
-#: node starved of the CPU has taken 147 ms once, so the suite holds them to 250 ms: still a reaction of the
-#: node's own checks (a fall takes the robot about a second), with the figure printed either way.
-LOW_LEVEL_BOUND_S = float(os.environ.get("G1_LOW_LEVEL_BOUND_S", "0.25"))
-REMOTE_BOUND_S = float(os.environ.get("G1_REMOTE_BOUND_S", "0.25"))
-#: From a walking robot's tilt passing the limit to the node's Damp on the robot's record, in HIGH_LEVEL.
-HIGH_LEVEL_BOUND_S = 0.5
 LEGS_KP, ARMS_KP, KD = 80.0, 40.0, 2.0
 
 
@@ -151,12 +148,17 @@ def _clear_to_idle(stack) -> None:
     assert stack.modes() and wait_until(lambda: stack.modes()[-1].mode == ModeMsg.IDLE, 5.0)
 
 
-def _latency(name: str, t_condition: float, t_reaction: float, bound: float) -> None:
-    print(f"{name}: reaction {1000 * (t_reaction - t_condition):.1f} ms after the condition (bound {1000 * bound:.0f} ms)")
-    assert t_reaction - t_condition <= bound, f"{name}: {t_reaction - t_condition:.3f} s"
+def _damping_reaction(stack, name: str, t_condition: float, goal_s: float) -> float:
+    """The first damping frame the robot received since its condition (less one body sample: the node reads
+    rt/lowstate between the record's samples); its latency printed, and held to ``goal_s`` when the run has
+    the machine to itself. Then no user frame may reach the robot. Returns the frame's time."""
+    t_damping = _first_damping_frame(stack, t_condition - BODY_SAMPLE_S)
+    check_latency(name, t_condition, t_damping, goal_s)
+    assert _user_frames(stack, t_damping) == [], f"{name}: a user frame reached the robot after the damping began"
+    return t_damping
 
 
-def test_a_walking_robot_pushed_over_is_damped_within_half_a_second(shared_stack_factory) -> None:
+def test_a_walking_robot_pushed_over_is_damped(shared_stack_factory) -> None:
     stack = shared_stack_factory()
     stack.modes()
     assert stack.set_mode("high_level").success
@@ -180,14 +182,14 @@ def test_a_walking_robot_pushed_over_is_damped_within_half_a_second(shared_stack
         driver.join(5.0)
     t_tilt = _first_body(stack, t0, "tilt", 1.0)
     t_damp = next(e["t"] for e in requests(stack.record.events(t0)) if is_damp(e))
-    _latency("pushed over in HIGH_LEVEL: the node's Damp", t_tilt, t_damp, HIGH_LEVEL_BOUND_S)
+    check_latency("pushed over in HIGH_LEVEL: the node's Damp", t_tilt, t_damp, HIGH_LEVEL_DAMP_S)
     moves = [e for e in requests(stack.record.events(t_damp), api_ids.LOCO_SET_VELOCITY) if any(velocity_of(e) or [])]
     assert moves == [], moves[:3]
     _damped_on_the_robot(stack, t0)
     print(f"~/mode: {fault.name}, faults {list(fault.faults)}")
 
 
-def test_low_level_checks_damp_a_streaming_controller_within_their_bound(shared_stack_factory) -> None:
+def test_low_level_checks_damp_a_streaming_controller(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=("fault_clear_hold_s:=0.5",), bridge_args=("--gantry",))
     stack.modes()
     controller = Controller(stack)
@@ -196,9 +198,7 @@ def test_low_level_checks_damp_a_streaming_controller_within_their_bound(shared_
         t0 = _low_level_with_controller(stack, controller)
         stack.set_faults({"motor_temperature": {"3": [70, 130]}})
         t_hot = _injected(stack, "motor_temperature", t0)
-        t_damping = _first_damping_frame(stack, t0)
-        _latency("winding overheat in LOW_LEVEL: damping frames", t_hot, t_damping, LOW_LEVEL_BOUND_S)
-        assert _user_frames(stack, t_damping) == [], "a user frame reached the robot after the damping began"
+        _damping_reaction(stack, "winding overheat in LOW_LEVEL: damping frames", t_hot, LOW_LEVEL_REACTION_S)
         _fault_seen(stack, "winding_overheat", "winding_critical")
         _damped_on_the_robot(stack, t0)
         refused = stack.clear_fault()
@@ -209,13 +209,10 @@ def test_low_level_checks_damp_a_streaming_controller_within_their_bound(shared_
         # the state stream freezes: the condition is 1 s without rt/lowstate
         t0 = _low_level_with_controller(stack, controller)
         stack.set_faults({"freeze_lowstate": True})
-        t_lost = _injected(stack, "freeze_lowstate", t0) + 1.0
-        assert wait_until(lambda: time.monotonic() > t_lost + 0.2, 5.0)
-        frames = [e["t"] for e in stack.record.events(t_lost) if e["k"] == "frame" and e["topic"] == "lowcmd"
-                  and e["kp_max"] == 0]
-        assert frames, "no damping frame after the state stream was lost"
-        _latency("state lost in LOW_LEVEL: damping frames", t_lost, frames[0], LOW_LEVEL_BOUND_S)
-        assert _user_frames(stack, t_lost) == []
+        t_frozen = _injected(stack, "freeze_lowstate", t0)
+        # the node damps once the link looks lost (before the check's 1 s), and the FAULT's SelectMode may end
+        # the damping frames before that second is over: the reaction is the first damping frame since the freeze
+        _damping_reaction(stack, "state frozen in LOW_LEVEL: damping frames", t_frozen, 1.0 + LOW_LEVEL_REACTION_S)
         _fault_seen(stack, "state_lost")
         _damped_on_the_robot(stack, t0)
         _clear_to_idle(stack)
@@ -224,7 +221,7 @@ def test_low_level_checks_damp_a_streaming_controller_within_their_bound(shared_
         t0 = _low_level_with_controller(stack, controller)
         controller.msg = _stand_command(left_wrist_roll_joint=(1.5, 500.0))
         t_fast = _first_body(stack, t0, "dq", 10.0)
-        _latency("joint speed in LOW_LEVEL: damping frames", t_fast, _first_damping_frame(stack, t0), LOW_LEVEL_BOUND_S)
+        _damping_reaction(stack, "joint speed in LOW_LEVEL: damping frames", t_fast, LOW_LEVEL_REACTION_S)
         _fault_seen(stack, "joint_speed", "spin")
         _damped_on_the_robot(stack, t0)
         _clear_to_idle(stack)
@@ -237,7 +234,7 @@ def test_low_level_checks_damp_a_streaming_controller_within_their_bound(shared_
         stack.set_gantry(False)
         assert wait_until(lambda: any(m.mode == ModeMsg.FAULT for m in stack.modes()), 10.0)
         t_fall = min(_first_body(stack, t0, "tilt", 1.0), _first_body(stack, t0, "gyro", 6.0))
-        _latency("a fall in LOW_LEVEL: damping frames", t_fall, _first_damping_frame(stack, t0), LOW_LEVEL_BOUND_S)
+        _damping_reaction(stack, "a fall in LOW_LEVEL: damping frames", t_fall, LOW_LEVEL_REACTION_S)
         _fault_seen(stack, "tilt", "spin", "joint_speed")
         _damped_on_the_robot(stack, t0)
 
@@ -266,9 +263,7 @@ def test_the_remote_combination_stops_the_robot(shared_stack_factory, mode: str)
         node_damps = [e for e in requests(stack.record.events(t_keys)) if is_damp(e)]
         assert node_damps, "the node sent no Damp"
         if controller is not None:  # nothing else on the robot listens to the remote in LOW_LEVEL
-            t_damping = _first_damping_frame(stack, t_keys)
-            _latency("remote L2+B in LOW_LEVEL: damping frames", t_keys, t_damping, REMOTE_BOUND_S)
-            assert _user_frames(stack, t_damping) == [], "a user frame reached the robot after the damping began"
+            _damping_reaction(stack, "remote L2+B in LOW_LEVEL: damping frames", t_keys, REMOTE_REACTION_S)
         print(f"remote L2+B in {mode}: the node's first Damp {1000 * (node_damps[0]['t'] - t_keys):.1f} ms after")
         _damped_on_the_robot(stack, t0)
     finally:

@@ -84,7 +84,9 @@ def test_estop_from_low_level_reselects_the_service_then_damps(shared_stack_fact
 
 
 def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(shared_stack_factory) -> None:
-    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}})
+    # hung in the gantry, as for any low-level work: a limp robot falling in LOW_LEVEL trips a body check (FAULT)
+    # before the mode change below on a loaded machine
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}}, bridge_args=("--gantry",))
     assert stack.set_mode("low_level").success
     selects = stack.requests(SWITCHER, api_ids.MS_SELECT_MODE)
     with ThreadPoolExecutor(1) as pool:
@@ -148,7 +150,9 @@ def test_bad_input_gets_errors_node_stays_up_and_nothing_moves(shared_stack_fact
     arm.publish(JointState(name=["left_knee_joint"], position=[1.0]))
     arm.publish(JointState(name=["left_elbow_joint"], position=[1.0, 2.0]))
     low.publish(JointCommand(name=["left_knee_joint"], q=[1.0], kp=[100.0], kd=[1.0, 2.0]))
-    assert wait_until(lambda: "arm_cmd rejected" in stack.node.output() and "lowcmd dropped" in stack.node.output(), 5.0)
+    low.publish(JointCommand(name=["left_knee_joint"], q=[1.0], kp=[100.0], kd=[1.0]))  # valid, wrong mode
+    assert wait_until(lambda: all(text in stack.node.output() for text in (
+        "arm_cmd rejected", "lowcmd rejected", "lowcmd dropped: mode is HIGH_LEVEL")), 5.0)
     assert sum(stack.frames("arm_sdk").values()) == 0 and sum(stack.frames("lowcmd").values()) == 0  # none reached it
     with ThreadPoolExecutor(8) as pool:
         results = list(pool.map(stack.set_mode, ["bogus", "idle", "high_level", "low_level", "x"] * 8))

@@ -171,7 +171,7 @@ _OTHER: list = []
 
 
 def _other_program():
-    """An SDK loco client in this process (kept for the session: see support.sim_bridge's pitfall)."""
+    """An SDK loco client in this process (kept for the session: see harness.sim_bridge's pitfall)."""
     if not _OTHER:
         from g1_mode_manager.sdk.loco_client import LocoClient
 

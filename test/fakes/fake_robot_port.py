@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from fakes.fake_user_ctrl import UserCtrlRobot
 from g1_mode_manager.core.port import MotorCommand, OdomSample, RobotError, SportState, StateSample, VoicePort
 from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.protocol.lowstate_fields import decode_body_fields
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 
 
@@ -162,8 +163,8 @@ class FakeRobotPort(UserCtrlRobot):
         self._record("close")
 
     def state_sample(self) -> StateSample | None:
-        """The raw LowState_ a test set (``state``), aged ``state_age``; None unless a test sets one."""
-        return None if self.state is None else StateSample(self.state, self.state_age, low_rate=False)
+        """The LowState_ a test set (``state``), aged ``state_age``; None unless a test sets one."""
+        return None if self.state is None else StateSample(decode_body_fields(self.state), self.state_age, low_rate=False)
 
     def battery_soc(self) -> tuple[float, float] | None:
         return None if self.soc is None else (self.soc, 0.1)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from fakes.fake_clock import FakeClock
-from g1_mode_manager.relay.events import RelayEvents
+from g1_mode_manager.core.events import RelayEvents
 
 
 @pytest.fixture

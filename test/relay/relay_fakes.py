@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+from g1_mode_manager.core.machine.gate import ForwardDecision
 from g1_mode_manager.core.modes import Mode
 
 
@@ -26,12 +27,6 @@ class Gate:
     def _is(self, mode: Mode) -> bool:
         return self.mode is mode and not self.in_transition
 
-    def allows_cmd_vel(self) -> bool:
-        return self._is(Mode.HIGH_LEVEL)
-
-    def allows_arm_commands(self) -> bool:
-        return self._is(Mode.HIGH_LEVEL)
-
     def allows_low_level_commands(self) -> bool:
         return self._is(Mode.LOW_LEVEL) and not self.holds
 
@@ -39,14 +34,10 @@ class Gate:
         return self.holds
 
     @contextmanager
-    def forwarding(self, predicate: Callable[[Mode], bool]) -> Iterator[bool]:
-        ok = predicate(self.mode) and not self.in_transition and not self.forward_refuses
+    def forwarding(self, predicate: Callable[[Mode], bool]) -> Iterator[ForwardDecision]:
+        ok = predicate(self.mode) and not self.in_transition and not self.holds and not self.forward_refuses
         self.forwarded += ok
-        yield ok
-
-    @contextmanager
-    def ramping_out(self) -> Iterator[bool]:
-        yield self.mode is not Mode.EMERGENCY
+        yield ForwardDecision(ok, self.mode)
 
     def add_leave_listener(self, listener: Callable[[Mode, Mode], None]) -> None:
         self.listeners.append(listener)

@@ -194,7 +194,22 @@ def test_bad_input_refused_and_nothing_sent(events, bad) -> None:
     assert match in relay.submit(names, positions)
     relay.tick(PERIOD)
     assert port.stream("write_arm_sdk") == []
-    assert _relay(port, Gate(Mode.LOW_LEVEL), events).submit(["left_elbow_joint"], [0.1]) == "mode is LOW_LEVEL"
+
+
+def test_outside_high_level_the_frames_gate_drops_the_commands_taken_with_the_mode_named(events, logs) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.LOW_LEVEL)
+    relay = _relay(port, gate, events)
+    assert relay.submit(["left_elbow_joint"], [0.1]) is None  # taken: the frame's gate decides
+    assert relay.submit(["left_elbow_joint"], [0.2]) is None
+    relay.tick(PERIOD)
+    relay.tick(PERIOD)
+    assert port.stream("write_arm_sdk") == [] and not relay.busy()  # dropped, and its stream forgotten
+    assert events.counts()["arm_cmd_dropped"] == 2
+    assert ("warn", "arm_cmd dropped: mode is LOW_LEVEL, arm commands pass only in HIGH_LEVEL") in logs
+    gate.mode = Mode.HIGH_LEVEL
+    relay.tick(PERIOD)
+    assert port.stream("write_arm_sdk") == []  # nothing taken in LOW_LEVEL reaches the robot later
 
 
 def test_after_an_estop_no_arm_frame_is_sent_even_while_the_robot_still_stands(events, logs) -> None:

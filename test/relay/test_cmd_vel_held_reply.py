@@ -11,11 +11,11 @@ import threading
 from collections.abc import Callable
 
 from fakes.fake_robot_port import FakeRobotPort
+from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine, Outcome
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.relay.cmd_vel import CmdVelRelay
-from g1_mode_manager.relay.events import RelayEvents
 from g1_mode_manager.relay.link_health import LinkHealth
 from support.mode_manager import wait_until
 

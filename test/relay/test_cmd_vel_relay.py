@@ -37,12 +37,16 @@ def _run(relay, clock, n, dt=PERIOD) -> None:
         relay.step()
 
 
-def test_dropped_outside_high_level_with_warning_naming_the_mode(events, logs, clock) -> None:
+def test_dropped_outside_high_level_with_warning_naming_the_mode_and_never_sent_later(events, logs, clock) -> None:
     port = FakeRobotPort()
     for mode in (Mode.UNINITIALIZED, Mode.IDLE, Mode.LOW_LEVEL, Mode.EMERGENCY):
-        relay = _relay(port, Gate(mode), events, clock)
-        assert relay.submit(0.5, 0.0, 0.0) is None
-        relay.step()
+        gate = Gate(mode)
+        relay = _relay(port, gate, events, clock)
+        relay.submit(0.5, 0.0, 0.0)
+        relay.step()  # the forward gate refuses: the command taken since the last step is dropped
+        relay.step()  # nothing new taken: nothing more dropped
+        gate.mode = Mode.HIGH_LEVEL
+        _run(relay, clock, 2, dt=0.01)  # the dropped command and its stream are forgotten
     assert _moves(port) == []
     assert events.counts()["cmd_vel_dropped"] == 4
     assert ("warn", "cmd_vel dropped: mode is UNINITIALIZED, velocity commands pass only in HIGH_LEVEL") in logs

@@ -161,10 +161,10 @@ def test_link_health_needs_sportmodestate_in_high_level() -> None:
     port = FakeRobotPort()
     gate = Gate(Mode.HIGH_LEVEL)
     link = LinkHealth(port, gate, 0.5)
-    assert link.link_ok()
+    assert link.link_ok(Mode.HIGH_LEVEL)
     port.sport = SportState(4, 0, 0, 0.0, age_s=2.0)
-    assert not link.link_ok() and "sportmodestate" in link.report().reason
+    assert not link.link_ok(Mode.HIGH_LEVEL) and "sportmodestate" in link.report().reason
     gate.mode = Mode.LOW_LEVEL
-    assert link.link_ok()
+    assert link.link_ok(Mode.LOW_LEVEL)
     gate.mode = Mode.UNINITIALIZED
     assert not link.report().connected

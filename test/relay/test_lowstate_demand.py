@@ -31,7 +31,7 @@ def rig():
     state = Rig()
     port = FakeRobotPort()
     machine = type("Machine", (), {"status": lambda _self: state.status})()
-    demand = LowStateDemand(port, machine, lambda: state.arms, lambda: state.link, always=False,
+    demand = LowStateDemand(port, machine, lambda: state.arms, lambda _mode: state.link, always=False,
                             clock=state.clock)  # fmt: skip
     return state, port, demand
 
@@ -84,7 +84,7 @@ def test_a_transition_a_target_arms_and_a_lost_link_subscribe_at_once(rig) -> No
 def test_joint_states_keep_it_always(rig) -> None:
     state, port, _ = rig
     always = LowStateDemand(port, type("M", (), {"status": lambda _s: state.status})(), lambda: False,
-                            lambda: True, always=True, clock=state.clock)  # fmt: skip
+                            lambda _mode: True, always=True, clock=state.clock)  # fmt: skip
     settle(state, always)
     assert port.lowstate_wanted
 
@@ -119,4 +119,4 @@ def test_link_ok_answers_what_the_full_report_says(mode: Mode) -> None:
                 port.lowstate_age = low
                 port.sport = None if sport is None else SportState(4, 0, 0, 0.0, sport)
                 link = LinkHealth(port, _Gate(mode), 0.5)
-                assert link.link_ok() == link.report().ok, (receiving, low, sport)
+                assert link.link_ok(mode) == link.report().ok, (receiving, low, sport)

@@ -16,6 +16,7 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 
 from g1_mode_manager.protocol.cyclone_internals import (
+    complete_type_id,
     delete_entity,
     held_listener,
     minimal_type_hash,
@@ -58,6 +59,8 @@ def test_minimal_type_hash_is_still_built_by_xtbuilder() -> None:
     assert callable(getattr(XTBuilder, "process_type", None)), changed("XTBuilder has no process_type")
     digest = minimal_type_hash(SportModeState_)
     assert isinstance(digest, bytes) and len(digest) == 14, changed(f"a minimal type hash is {digest!r}, not 14 bytes")
+    complete = complete_type_id(SportModeState_)
+    assert isinstance(complete, bytes) and complete, changed(f"a complete type id is {complete!r}")
 
 
 @pytest.fixture

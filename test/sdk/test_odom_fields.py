@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import pytest
-from cyclonedds.idl._support import Endianness
+from cyclonedds.idl import Endianness
 from unitree_sdk2py.idl.default import unitree_go_msg_dds__SportModeState_
 
-from g1_mode_manager.protocol.odom_fields import OdomFields, OdomModeState_, decode_odom, encode_odom
+from g1_mode_manager.protocol.idl import OdomModeState_
+from g1_mode_manager.protocol.odom_fields import OdomFields, encode_odom
+from g1_mode_manager.sdk.odom_reader import decode_odom
 
 
 def _sample() -> OdomFields:

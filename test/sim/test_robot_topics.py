@@ -27,8 +27,7 @@ from unitree_sdk2py.g1.loco.g1_loco_client import LocoClient
 
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol import topics
-from g1_mode_manager.protocol.idl import IMUState_, LowState_
-from g1_mode_manager.protocol.odom_fields import OdomModeState_
+from g1_mode_manager.protocol.idl import IMUState_, LowState_, OdomModeState_
 from support.collected import Collected
 from support.cyclone010 import STOCK_CLIENT, json_lines
 from support.lossy_rpc import Result, call_robot
@@ -56,9 +55,9 @@ from cyclonedds.util import duration
 from unitree_sdk2py.core.channel import ChannelSubscriber
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.cyclone_internals import take_serialized
-from g1_mode_manager.protocol.idl import IMUState_
-from g1_mode_manager.protocol.odom_fields import OdomModeState_, decode_odom
+from g1_mode_manager.protocol.idl import IMUState_, OdomModeState_
 from g1_mode_manager.protocol.unitree_sdk_internals import channel_datareader, subscriber_channel
+from g1_mode_manager.sdk.odom_reader import decode_odom
 counts, stamp, keep = {}, [0.0], []
 # five seconds at 1 kHz: a counter starved of the CPU for a while still counts every sample
 qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(5000))

@@ -52,7 +52,7 @@ class CycloneGraph:
     property Cyclone puts in every participant's discovery data).
 
     Made once per process and kept: the SDK's entities must never be garbage-collected while the process lives
-    (see support.sim_bridge)."""
+    (see harness.sim_bridge)."""
 
     def __init__(self) -> None:
         from cyclonedds.builtin import (

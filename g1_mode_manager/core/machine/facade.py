@@ -16,7 +16,7 @@ from g1_mode_manager.core import modes
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.machine.estop import Estop
 from g1_mode_manager.core.machine.fault import FaultStop
-from g1_mode_manager.core.machine.gate import ForwardGate
+from g1_mode_manager.core.machine.gate import ForwardDecision, ForwardGate
 from g1_mode_manager.core.machine.runner import TransitionRunner
 from g1_mode_manager.core.machine.state import AlarmListener, LeaveListener, MachineState
 from g1_mode_manager.core.machine.supervisor import Supervisor
@@ -108,13 +108,10 @@ class ModeMachine:
             return bool(self._state.holds)
 
     # --- what the relays and loco commands go through (see gate.py) ------------------------------
-    def forwarding(self, predicate: Callable[[Mode], bool]) -> AbstractContextManager[bool]:
-        """Held around one write; yields whether it may pass now (never around a wait for a reply)."""
+    def forwarding(self, predicate: Callable[[Mode], bool]) -> AbstractContextManager[ForwardDecision]:
+        """Held around one write; yields the decision: may it pass now, and the mode judged (never around a
+        wait for a reply)."""
         return self._gate.forwarding(predicate)
-
-    def ramping_out(self) -> AbstractContextManager[bool]:
-        """Held around one hand-back frame: allowed in every mode but EMERGENCY."""
-        return self._gate.ramping_out()
 
     def robot_call(self, allowed: Callable[[Mode], bool], *, stopping: bool = False) -> AbstractContextManager[bool]:
         """Around a blocking robot-changing call: yields whether it may be sent; registered as in flight.

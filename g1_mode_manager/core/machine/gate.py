@@ -15,10 +15,26 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 
 from g1_mode_manager.core.machine.state import MachineState
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.preemption import Preempted
+
+
+@dataclass(frozen=True)
+class ForwardDecision:
+    """What the forward gate judged, for the one write under it: whether it may pass, and the mode it saw.
+
+    The mode is the one the gate read with its verdict, so the code under the gate (the link check, a drop's
+    reason) takes it instead of asking the machine again."""
+
+    allowed: bool
+    mode: Mode
+
+    def __bool__(self) -> bool:
+        # an object is always true: `if decision:` would forward in every mode, so it must fail loudly
+        raise TypeError("a ForwardDecision is no bool: ask its .allowed")
 
 
 class ForwardGate:
@@ -32,21 +48,14 @@ class ForwardGate:
 
     # --- what relays and loco commands go through ------------------------------------------------
     @contextmanager
-    def forwarding(self, predicate: Callable[[Mode], bool]) -> Iterator[bool]:
-        """Held around one write; yields whether it may pass now. Keep the body to the write itself:
-        the wait for a reply belongs after the block."""
+    def forwarding(self, predicate: Callable[[Mode], bool]) -> Iterator[ForwardDecision]:
+        """Held around one write; yields the decision (may it pass now, in which mode), read with one take of
+        the state's lock. Keep the body to the write itself: the wait for a reply belongs after the block."""
+        state = self._state
         with self.lock:
-            yield self._state.allows(predicate)
-
-    @contextmanager
-    def ramping_out(self) -> Iterator[bool]:
-        """Held around one hand-back frame (an arm weight going down): allowed in every mode but EMERGENCY
-        and FAULT, also while a transition runs (leaving HIGH_LEVEL waits for the ramp-out) and while a
-        body check holds motion. After an e-stop or a protective stop nothing but damping reaches the robot."""
-        with self.lock:
-            with self._state.lock:
-                ok = self._state.mode not in (Mode.EMERGENCY, Mode.FAULT)
-            yield ok
+            with state.lock:
+                decision = ForwardDecision(state.allows_locked(predicate), state.mode)
+            yield decision
 
     @contextmanager
     def robot_call(self, allowed: Callable[[Mode], bool], *, stopping: bool = False) -> Iterator[bool]:

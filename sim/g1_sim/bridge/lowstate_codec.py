@@ -52,7 +52,7 @@ class LowStatePacker:
 
     def __init__(self, *, mode_machine: int = MODE_MACHINE_G1_29DOF) -> None:
         # XCDR1: what writers with default QoS ask for (use_version_2 None or False) for this final struct.
-        raw = _default_lowstate(mode_machine).serialize(use_version_2=False)
+        raw = default_lowstate(mode_machine).serialize(use_version_2=False)
         if len(raw) != _HEADER + _BODY_SIZE:
             raise RuntimeError(f"unexpected LowState_ CDR size {len(raw)}")
         self._buf = np.frombuffer(bytearray(raw), dtype=np.uint8)
@@ -75,7 +75,7 @@ class LowStatePacker:
         self._last_vol = 0.0
         self._crc = _view(self._buf, body + _CRC, "<u4", 1, 4)
         self._c_struct = np.zeros(_BODY_SIZE, dtype=np.uint8)  # C layout without the crc word
-        self._msg = _default_lowstate(mode_machine)
+        self._msg = default_lowstate(mode_machine)
         # The DataWriter asks the sample to serialise itself: hand it the packed bytes.
         self._msg.serialize = self._serialize  # type: ignore[method-assign]
 
@@ -139,7 +139,9 @@ class LowStatePacker:
         return crc32_of_array(c, c.size // 4)  # zlib over the bit-reversed words: a few us
 
 
-def _default_lowstate(mode_machine: int) -> LowState_:
+def default_lowstate(mode_machine: int) -> LowState_:
+    """A LowState_ at rest (upright attitude, every other field zero): the packer's template, and what
+    bench.bridge_speed serialises the SDK's way to compare."""
     imu = IMUState_(quaternion=[1.0, 0.0, 0.0, 0.0], gyroscope=[0.0] * 3, accelerometer=[0.0] * 3,
                     rpy=[0.0] * 3, temperature=0)  # fmt: skip
     motors = [

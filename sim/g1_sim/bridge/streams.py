@@ -15,8 +15,8 @@ from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_
 
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
-from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, SportModeState_
-from g1_mode_manager.protocol.odom_fields import OdomFields, OdomModeState_, encode_odom
+from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, OdomModeState_, SportModeState_
+from g1_mode_manager.protocol.odom_fields import OdomFields, encode_odom
 from g1_mode_manager.protocol.unitree_sdk_internals import (
     channel_datareader,
     channel_datawriter,

@@ -1,4 +1,5 @@
-"""How relays report: counters and throttled log lines, without depending on ROS logging."""
+"""How workers report (the relays, the body watch, the head LED display): counters and throttled log lines,
+without depending on ROS logging."""
 
 from __future__ import annotations
 

@@ -1,0 +1,73 @@
+"""The command streams the node takes: cmd_vel (Twist or TwistStamped), ~/arm_cmd and ~/lowcmd.
+
+They are taken by a thread of their own from a wait set of just them (see stream_taker.py): rclpy's executor
+rebuilds its wait set in Python for every /cmd_vel. cmd_vel is relative (a namespace gives each robot its own);
+~/arm_cmd and ~/lowcmd carry the main node's name. Each message is handed to its relay, which decides under
+the forward gate whether it passes.
+"""
+
+from __future__ import annotations
+
+import rclpy
+from g1_mode_manager_msgs.msg import JointCommand
+from geometry_msgs.msg import Twist, TwistStamped
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from g1_mode_manager.node.joint_command_cdr import JointCommandReader
+from g1_mode_manager.node.parts import Parts
+from g1_mode_manager.node.settings import Settings
+from g1_mode_manager.node.stream_taker import StreamTaker
+from g1_mode_manager.node.twist_cdr import twist_velocity
+from g1_mode_manager.relay.stamps import stamp_age_s
+
+
+class CommandStreams:
+    """Subscribes on a node of its own; ``start`` starts the taker thread, ``shutdown`` stops it."""
+
+    def __init__(self, main: Node, settings: Settings, parts: Parts) -> None:
+        self._clock = main.get_clock()
+        self._cmd_vel_timeout_s = settings.cmd_vel_timeout_s
+        self._parts = parts
+        self._node = rclpy.create_node(f"{main.get_name()}_streams", namespace=main.get_namespace(),
+                                       context=main.context, start_parameter_services=False)
+        self._taker = StreamTaker(self._node, "streams", parts.log.worker_error)
+        under_main = main.get_fully_qualified_name()
+        if settings.cmd_vel_stamped:
+            self._taker.subscribe(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
+        else:
+            self._taker.subscribe(Twist, "cmd_vel", self._on_cmd_vel, raw=True)  # decoded by twist_cdr
+        self._taker.subscribe(JointState, f"{under_main}/arm_cmd", self._on_arm_cmd)
+        self._lowcmd_reader = JointCommandReader()
+        self._taker.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd, raw=True)  # joint_command_cdr
+
+    def start(self) -> None:
+        self._taker.start()
+
+    def shutdown(self) -> None:
+        self._taker.shutdown()
+        self._node.destroy_node()
+
+    def _on_cmd_vel(self, data: bytes) -> None:
+        self._parts.cmd_vel.submit(*twist_velocity(data))
+
+    def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
+        """A command older than cmd_vel_timeout_s is dropped and counted (it would restart a robot the
+        watchdog already stopped)."""
+        age_s = stamp_age_s(self._clock.now().nanoseconds, msg.header.stamp.sec, msg.header.stamp.nanosec)
+        if age_s > self._cmd_vel_timeout_s:
+            events = self._parts.log.events
+            events.count("cmd_vel_stale_dropped")
+            events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout_s "
+                             f"{self._cmd_vel_timeout_s:.3f} s)")
+            return
+        t = msg.twist
+        self._parts.cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
+
+    def _on_arm_cmd(self, msg: JointState) -> None:
+        self._parts.arm.submit(list(msg.name), list(msg.position))
+        self._parts.lowstate_demand.update()  # the ramp starts from the measured pose
+        self._parts.arm_worker.wake()
+
+    def _on_lowcmd(self, data: bytes) -> None:
+        self._parts.lowcmd.submit(*self._lowcmd_reader.fields(data))

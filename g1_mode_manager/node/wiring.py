@@ -1,0 +1,68 @@
+"""The node wired: its robot-side parts (parts.py) and its ROS side, what it publishes, serves and takes.
+
+The mode machine tells of a change through ``on_change``, which it is handed before the parts that listen
+exist: a :class:`ChangeListeners` to which each listener is added once built, before any thread that could
+change the mode starts (mode_manager.py starts them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from rclpy.node import Node
+
+from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.core.records import MachineStatus
+from g1_mode_manager.node.command_streams import CommandStreams
+from g1_mode_manager.node.estop import EstopEndpoint
+from g1_mode_manager.node.node_log import NodeLog
+from g1_mode_manager.node.parts import Parts, build_parts
+from g1_mode_manager.node.services import Services
+from g1_mode_manager.node.settings import Settings
+from g1_mode_manager.node.state_publishers import StatePublishers
+
+PortFactory = Callable[[Settings], RobotPort]
+
+
+def unitree_port(settings: Settings) -> RobotPort:
+    """The real robot port: Unitree SDK2 over Cyclone DDS (connects on the first transition)."""
+    from g1_mode_manager.sdk.robot import UnitreeRobot
+
+    return UnitreeRobot(settings.dds_domain, settings.network_interface, rpc_timeout_s=settings.rpc_timeout_s,
+                        mode_timeout_s=settings.select_timeout_s, user_ctrl=settings.user_ctrl_config() is not None)
+
+
+class ChangeListeners:
+    """The machine's ``on_change``: calls each listener added so far, in the order they were added."""
+
+    def __init__(self) -> None:
+        self._listeners: list[Callable[[MachineStatus], None]] = []
+
+    def add(self, listener: Callable[[MachineStatus], None]) -> None:
+        self._listeners.append(listener)
+
+    def __call__(self, status: MachineStatus) -> None:
+        for listener in tuple(self._listeners):
+            listener(status)
+
+
+@dataclass(frozen=True)
+class Endpoints:
+    """The node's ROS side, each on threads of its own (see ModeManagerNode)."""
+
+    state: StatePublishers  # ~/mode, /diagnostics, ~/sportmodestate, odom, joint_states, ~/imu
+    services: Services  # ~/set_mode, ~/loco_command, ~/clear_fault
+    streams: CommandStreams  # cmd_vel, ~/arm_cmd, ~/lowcmd
+    estop: EstopEndpoint  # ~/estop, /estop
+
+
+def wire(node: Node, settings: Settings, port: RobotPort) -> tuple[Parts, Endpoints]:
+    """Build everything ``node`` is made of; nothing is started."""
+    changes = ChangeListeners()
+    parts = build_parts(settings, port, NodeLog(node.get_logger()), changes)
+    state = StatePublishers(node, settings, parts)
+    changes.add(parts.wake_relay_workers)
+    changes.add(state.publish_mode)
+    return parts, Endpoints(state=state, services=Services(node, parts), streams=CommandStreams(node, settings, parts),
+                            estop=EstopEndpoint(node, parts.machine.estop_shot, parts.machine.estop))

@@ -1,0 +1,88 @@
+"""Read the sim's own record (``sim_bridge --record PATH``): what the robot received, and when.
+
+Receive times are CLOCK_MONOTONIC, shared with the test process, so ``time.monotonic()`` taken in a
+test can be compared with them directly. See ``g1_sim.bridge.record`` for the event kinds.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from g1_mode_manager.protocol import api_ids
+
+Event = dict[str, Any]
+DAMP_PARAMETER = {"data": 1}
+
+
+class SimRecord:
+    """The events of one bridge's record file, read up to date on every call (the bridge appends while we
+    read). Lines already read are kept, not parsed again: the record holds a ``body`` event every 10 ms of
+    sim time, and tests poll it."""
+
+    def __init__(self, path: str | Path, *, from_now: bool = False) -> None:
+        """``from_now``: only what the bridge records from now on (a test sharing the bridge of its file)."""
+        self.path = Path(path)
+        self._events: list[Event] = []
+        self._offset = self.path.stat().st_size if from_now and self.path.exists() else 0
+
+    def events(self, since: float = float("-inf")) -> list[Event]:
+        self._read_new()
+        return [e for e in self._events if e["t"] >= since]
+
+    def _read_new(self) -> None:
+        if not self.path.exists():
+            return
+        with self.path.open("rb") as f:
+            if f.seek(0, 2) < self._offset:  # a new file at the same path: start over
+                self._events, self._offset = [], 0
+            f.seek(self._offset)
+            for line in f:
+                if not line.endswith(b"\n"):
+                    break  # a line still being written
+                self._offset += len(line)
+                self._events.append(json.loads(line))
+
+    def after_last_reset(self) -> list[Event]:
+        events = self.events()
+        resets = [i for i, e in enumerate(events) if e["k"] == "reset"]
+        return events[resets[-1] + 1 :] if resets else events
+
+
+def requests(events: Iterable[Event], api_id: int | None = None, kind: str = "req") -> list[Event]:
+    return [e for e in events if e["k"] == kind and (api_id is None or e["api"] == api_id)]
+
+
+def fsm_of(event: Event) -> int | None:
+    """The fsm id a SetFsmId request asks for (None for other requests)."""
+    if event.get("api") != api_ids.LOCO_SET_FSM_ID:
+        return None
+    try:
+        return int(json.loads(event["p"])["data"])
+    except (ValueError, KeyError, TypeError):
+        return None
+
+
+def is_damp(event: Event) -> bool:
+    return fsm_of(event) == 1
+
+
+def velocity_of(event: Event) -> list[float] | None:
+    if event.get("api") != api_ids.LOCO_SET_VELOCITY:
+        return None
+    return list(json.loads(event["p"])["velocity"])
+
+
+def of_kind(events: Iterable[Event], kind: str) -> list[Event]:
+    return [e for e in events if e["k"] == kind]
+
+
+def states(events: Iterable[Event]) -> list[Event]:
+    return [e for e in events if e["k"] == "state"]
+
+
+def damped(state: Event) -> bool:
+    """The robot damping with a high-level service selected."""
+    return state["fsm"] == 1 and bool(state["svc"])

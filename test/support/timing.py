@@ -1,0 +1,67 @@
+"""Every timing number the suite asserts or waits on, in one place.
+
+A test asserts the order and the outcome of what the robot (the sim's record) shows; it asserts a time only
+where the time is the promise. Two kinds of numbers live here:
+
+- **Goals**: reaction times the product promises (a LOW_LEVEL damping frame within 50 ms of a fall...). Three
+  test workers and their sims load both cores of a small machine, and a node starved by them has reacted in
+  1.9 s where alone it reacts in 17 ms, so the suite asserts a goal only when run alone for it
+  (``G1_TIMING=strict``: ``make latency``); otherwise it prints the figure and asserts order.
+- **Margins**: how long a test waits for something that must happen at all, or a bound that separates two
+  outcomes (an answer that did not wait for a held reply of 2 s). Each is multiplied by ``LOAD``, the one
+  factor a loaded machine or CI may raise (``G1_TEST_LOAD=2``), never a new constant in a test.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Final
+
+from g1_sim.bridge.sim_loop import BODY_PERIOD_S
+
+#: Multiplies every margin: 1 on an ordinary machine; raise it on a slower or busier one.
+LOAD: Final = float(os.environ.get("G1_TEST_LOAD", "1"))
+#: Goals are asserted (the run has the machine to itself).
+STRICT: Final = os.environ.get("G1_TIMING", "") == "strict"
+
+
+def margin(seconds: float) -> float:
+    """A wait or separating bound, scaled by ``LOAD``."""
+    return seconds * LOAD
+
+
+# --- goals: the product's promised reaction times ----------------------------------------------------------
+#: A body check's condition on the robot -> the first LOW_LEVEL damping frame the robot received.
+LOW_LEVEL_REACTION_S: Final = 0.05
+#: L2+B pressed on the remote -> the first damping frame (LOW_LEVEL).
+REMOTE_REACTION_S: Final = 0.1
+#: A walking robot's tilt past the limit -> the node's Damp on the robot (HIGH_LEVEL).
+HIGH_LEVEL_DAMP_S: Final = 0.5
+#: An e-stop from LOW_LEVEL: damping frames go on until the robot's SelectMode answers ...
+DAMPING_UNTIL_SELECT_S: Final = 0.1
+#: ... and the Damp goes out the moment it does: the robot held neither by frames nor by fsm Damp (a few ms alone).
+NEITHER_HELD_S: Final = 0.15
+#: A set_mode or an e-stop's answer while a Move's reply is held on the robot (they must not wait for it).
+HELD_MOVE_ANSWER_S: Final = 0.05
+
+
+def check_latency(name: str, t_condition: float, t_reaction: float, goal_s: float) -> float:
+    """Print ``name``'s latency; assert it against ``goal_s`` only when the run is ``STRICT``. Returns it."""
+    latency = t_reaction - t_condition
+    how = "asserted" if STRICT else "printed only: the suite loads the machine"
+    print(f"{name}: {1000 * latency:.1f} ms (goal {1000 * goal_s:.0f} ms, {how})")
+    if STRICT:
+        assert latency <= goal_s, f"{name}: {latency:.3f} s, goal {goal_s} s"
+    return latency
+
+
+# --- margins ---------------------------------------------------------------------------------------------
+#: A ROS service's round trip on top of the node's own time budget (the request's and the reply's delivery; a
+#: loaded two-core machine stretched it to 0.74 s once).
+ROUND_TRIP_S: Final = margin(1.0)
+#: An e-stop's first Damp on the robot while a loco command waits for its outcome: a few ms on a quiet machine,
+#: up to ~0.1 s in a loaded suite, while one held behind the command would come after its outcome wait (1.5 s).
+ESTOP_NOT_HELD_S: Final = margin(0.5)
+#: The sim records the body every BODY_PERIOD_S of sim time: the node, reading rt/lowstate at 100 Hz, may see a
+#: condition up to one such period before the record's first sample of it.
+BODY_SAMPLE_S: Final = BODY_PERIOD_S
