@@ -216,14 +216,14 @@ class UnitreeRobot:
         sample = self.state_sample()
         if sample is None or sample.age_s > ATTITUDE_FRESH_S:
             return None
-        return roll_pitch(*decode_body_fields(sample.data).quaternion)
+        return roll_pitch(*sample.fields.quaternion)
 
     def joint_speed_max(self) -> float | None:
         """The largest |dq| of the newest state sample no older than ATTITUDE_FRESH_S; None without one."""
         sample = self.state_sample()
         if sample is None or sample.age_s > ATTITUDE_FRESH_S:
             return None
-        return max(map(abs, decode_body_fields(sample.data).dq))
+        return max(map(abs, sample.fields.dq))
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self.loco.set_velocity(vx, vy, wz, duration_s)
