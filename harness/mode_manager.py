@@ -19,7 +19,8 @@ def start_mode_manager(sdk_domain: int, *params: str, ready_timeout_s: float = 3
     """`python -m g1_mode_manager.node.main` on loopback and the given SDK domain; waits for its ready line.
 
     ``params`` are `name:=value` parameters, ``remaps`` `from:=to` remappings (e.g. `__ns:=/robot_a`). The suite's
-    tests were written for LOW_LEVEL by ReleaseMode: ``low_level_path:=release`` unless ``params`` say otherwise.
+    tests and the benchmarks were written for LOW_LEVEL by ReleaseMode: ``low_level_path:=release`` unless ``params``
+    say otherwise.
     """
     args = ["--ros-args", "-p", f"dds_domain:={sdk_domain}", "-p", "network_interface:=lo"]
     if not any(p.startswith("low_level_path:=") for p in params):

@@ -101,13 +101,13 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
         body=body, head_led=head_led, head_led_worker=head_led_worker,
     )
     machine.add_leave_listener(parts.wake_relay_workers)  # after the relays': exit damping is due now
-    if machine.user_ctrl_link is not None:  # the hand-over frames start while the worker may sleep
+    if machine.user_ctrl_link is not None:  # the hand-over frames start while the lowcmd worker may sleep
         machine.user_ctrl_link.wake = parts.lowcmd_worker.wake
     return parts
 
 
 def _lowcmd_relay(s: Settings, port: RobotPort, machine: ModeMachine, link: LinkHealth, events: RelayEvents, *,
-                  deadman: Callable[[], bool]) -> LowCmdRelay:
+                  deadman: Callable[[], bool]) -> LowCmdRelay:  # fmt: skip
     """~/lowcmd -> rt/lowcmd (low_level_path release) or rt/user_lowcmd (user_ctrl)."""
     kwargs = dict(silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
                   service_active=lambda: machine.status().service_active, deadman=deadman)

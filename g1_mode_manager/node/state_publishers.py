@@ -82,6 +82,14 @@ class StatePublishers:
             self._published_version = status.version
             self._publish_mode_locked(status)
 
+    def _path_note(self, status: MachineStatus) -> list[str]:
+        """~/mode says which path LOW_LEVEL takes while it is, or is about to be, in it (the Mode message has no
+        field of its own for it; warnings is the list every client already shows)."""
+        target = status.transition_target if status.transition_in_progress else status.mode
+        if Mode.LOW_LEVEL not in (status.mode, target):
+            return []
+        return [f"low_level_path: {self._parts.machine.low_level_path.value}"]
+
     def _publish_mode_locked(self, status: MachineStatus) -> None:
         self._mode_pub.publish(ModeMsg(
             stamp=self._node.get_clock().now().to_msg(),

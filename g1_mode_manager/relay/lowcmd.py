@@ -11,7 +11,7 @@ from g1_mode_manager.core import modes
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import MotorCommand, RobotError, RobotPort
+from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
 
@@ -132,8 +132,8 @@ class LowCmdRelay:
         self._events.log("warn", "lowcmd_dropped", f"lowcmd dropped: {why}, joint commands pass only in LOW_LEVEL")
         return why
 
-    def _send(self, frame: Sequence[MotorCommand]) -> None:
-        """The release path's topic: rt/lowcmd (the robot in debug mode)."""
+    def _send(self, frame: JointFrame) -> None:
+        """rt/lowcmd: the release path (the user_ctrl path's relay writes rt/user_lowcmd)."""
         self._port.write_lowcmd(frame)
 
     def _write(self, frame: JointFrame, counter: str) -> str | None:

@@ -18,11 +18,10 @@ What goes out, by situation (each frame written under the relay's worker at ``lo
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 from g1_mode_manager.core.joint_commands import DAMPING, JointFrame
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import MotorCommand
 from g1_mode_manager.core.records import Outcome
 from g1_mode_manager.core.user_ctrl import SilenceReaction, UserCtrlLink, hold_frame
 from g1_mode_manager.relay.lowcmd import EXIT_BURST, LowCmdRelay
@@ -42,9 +41,8 @@ class UserLowCmdRelay(LowCmdRelay):
         self._handing_back = False  # guarded by _lock
         self._next_hand_back = float("-inf")
 
-    def _send(self, frame: Sequence[MotorCommand]) -> None:
-        """The user_ctrl path's topic: rt/user_lowcmd, never rt/lowcmd."""
-        self._port.write_user_lowcmd(frame)
+    def _send(self, frame: JointFrame) -> None:
+        self._port.write_user_lowcmd(frame)  # type: ignore[attr-defined]
 
     def _hold_here(self) -> JointFrame:
         """The robot held where it is now (the previous filler if the pose is unknown)."""

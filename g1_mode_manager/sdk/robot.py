@@ -223,7 +223,7 @@ class UnitreeRobot:
         sample = self.state_sample()
         if sample is None or sample.age_s > ATTITUDE_FRESH_S:
             return None
-        return max(map(abs, decode_body_fields(sample.data).dq))
+        return max(map(abs, sample.fields.dq))
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration_s: float) -> None:
         self.loco.set_velocity(vx, vy, wz, duration_s)
