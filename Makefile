@@ -38,6 +38,8 @@ $(STAMPS)/package: $(STAMPS)/msgs setup.py setup.cfg package.xml
 	$(BIN)/python -m pip install -q --no-deps --no-build-isolation -e .
 	@touch $@
 
+# ruff's lint rules only: no formatter runs, so the code carries no formatter markers; tables of data stay aligned
+# by hand where that reads better.
 lint: setup
 	$(BIN)/ruff check .
 

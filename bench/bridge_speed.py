@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     for with_reader in (False, True):
         rtf = bridge_rtf(args.domain, args.seconds, with_reader)
         print(f"bridge at full speed, {'with' if with_reader else 'without'} a rt/lowstate reader process: "
-              f"{rtf:.1f}x real time")  # fmt: skip
+              f"{rtf:.1f}x real time")
     return 0
 
 

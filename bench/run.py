@@ -101,7 +101,7 @@ class Sim:
         shared_sim_status().reset()
 
     def first_request(self, api_id: int, t0: float, timeout_s: float,
-                      match: Callable[[dict], bool] = lambda _e: True) -> float | None:  # fmt: skip
+                      match: Callable[[dict], bool] = lambda _e: True) -> float | None:
         """Receive time of the first request of ``api_id`` at or after t0 that matches, or None."""
         deadline = time.monotonic() + timeout_s
         while True:
@@ -279,7 +279,7 @@ def estop_latency(bench: Bench, sim: Sim, samples: int, case: str, raw_per_sampl
 
 
 def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = None,
-                    raw_per_sample: int = 0) -> tuple[Stats, Stats]:  # fmt: skip
+                    raw_per_sample: int = 0) -> tuple[Stats, Stats]:
     """Publish a new vx; time until the robot receives a SetVelocity carrying it. With a flood running,
     the flood itself switches to the new value at t0 (two publishers at 1 kHz, latest wins). With
     ``raw_per_sample``, that many raw Move round trips (the stock client's SetVelocity, at a vx the node
@@ -308,7 +308,7 @@ def cmd_vel_latency(bench: Bench, sim: Sim, samples: int, flood: Flood | None = 
         else:
             flood.vx = vx
         t = sim.first_request(api_ids.LOCO_SET_VELOCITY, t0, 2.0,
-                              lambda e, vx=vx: abs(velocity_of(e)[0] - vx) < 1e-6)  # fmt: skip
+                              lambda e, vx=vx: abs(velocity_of(e)[0] - vx) < 1e-6)
         if t is not None:
             out.append(t - t0)
         for _ in range(3):  # keep the watchdog fed while waiting a little between samples
@@ -445,7 +445,7 @@ def raw_stream(topic: str, rate_hz: float, seconds: float) -> dict:
     out = Path(tempfile.mkdtemp(prefix="g1_raw_")) / "raw.json"
     subprocess.run([sys.executable, "-m", "bench.raw_stream", "--domain", str(SDK_DOMAIN), "--topic", topic,
                     "--rate", str(rate_hz), "--seconds", str(seconds), "--out", str(out)],
-                   cwd=REPO, check=True, timeout=seconds + 30)  # fmt: skip
+                   cwd=REPO, check=True, timeout=seconds + 30)
     return json.loads(out.read_text())
 
 
@@ -454,7 +454,7 @@ def relay_floor(bench: Bench, write: bool, seconds: float) -> float:
     JointCommand is published to it at 500 Hz, measured as the node's is."""
     topic = "/relay_floor/lowcmd"
     proc = subprocess.Popen([sys.executable, "-m", "bench.relay_floor", "--domain", str(SDK_DOMAIN), "--topic", topic,
-                             *(["--write"] if write else [])], cwd=REPO, stdout=subprocess.PIPE, text=True)  # fmt: skip
+                             *(["--write"] if write else [])], cwd=REPO, stdout=subprocess.PIPE, text=True)
     try:
         if proc.stdout is None or proc.stdout.readline().strip() != "ready":
             raise RuntimeError("relay_floor did not start")

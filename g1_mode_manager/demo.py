@@ -216,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
                               "-p", f"dds_domain:={args.dds_domain}", "-p", "network_interface:=lo",
                               "-p", "odom_rate_hz:=20.0",
                               "-p", f"low_level_path:={'release' if args.release else 'user_ctrl'}"], "ready in",
-                     env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})  # fmt: skip
+                     env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"})
         children.append(node)
         node.wait_ready(30.0)
         console_url = _start_console(py, args.console_port, children)

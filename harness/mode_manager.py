@@ -15,7 +15,7 @@ from harness.processes import ManagedProcess, python_module
 
 
 def start_mode_manager(sdk_domain: int, *params: str, ready_timeout_s: float = 30.0,
-                       remaps: tuple[str, ...] = ()) -> ManagedProcess:  # fmt: skip
+                       remaps: tuple[str, ...] = ()) -> ManagedProcess:
     """`python -m g1_mode_manager.node.main` on loopback and the given SDK domain; waits for its ready line.
 
     ``params`` are `name:=value` parameters, ``remaps`` `from:=to` remappings (e.g. `__ns:=/robot_a`). The suite's

@@ -29,13 +29,13 @@ STATUS_RESET = 9002
 
 
 def start_sim_bridge(sdk_domain: int, *, speed: float = 1.0, faults: dict[str, Any] | None = None,
-                     extra_args: Sequence[str] = (), timeout_s: float = READY_TIMEOUT_S) -> ManagedProcess:  # fmt: skip
+                     extra_args: Sequence[str] = (), timeout_s: float = READY_TIMEOUT_S) -> ManagedProcess:
     """Start the bridge on ``sdk_domain`` (loopback) and wait for its ready line.
 
     Raises TimeoutError / RuntimeError with the bridge's output if it does not come up.
     """
     argv = python_module("g1_sim.bridge.main", "--domain", str(sdk_domain), "--interface", "lo",
-                         "--speed", repr(float(speed)), *extra_args)  # fmt: skip
+                         "--speed", repr(float(speed)), *extra_args)
     if faults is not None:
         argv += ["--faults", json.dumps(faults)]
     proc = ManagedProcess(argv, name="sim_bridge")

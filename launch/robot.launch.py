@@ -63,4 +63,4 @@ def generate_launch_description() -> LaunchDescription:
                           "port": ParameterValue(LaunchConfiguration("console_port"), value_type=int),
                           "token_file": LaunchConfiguration("console_token_file")}],
              additional_env={"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}),  # the product's RMW, as the node's
-    ])  # fmt: skip
+    ])

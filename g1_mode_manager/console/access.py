@@ -54,7 +54,7 @@ class Access:
     def __init__(self, bind_host: str, token: str) -> None:
         if not token and not is_loopback(bind_host):
             raise ValueError(f"binding to {bind_host} reaches other machines: it needs a token (parameter token or "
-                             "token_file); without one, bind to 127.0.0.1")  # fmt: skip
+                             "token_file); without one, bind to 127.0.0.1")
         self._token = token.encode()
         self.loopback_only = is_loopback(bind_host)
 

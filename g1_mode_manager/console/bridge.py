@@ -43,7 +43,7 @@ class ServiceUnavailableError(RuntimeError):
 def _value(p: Any) -> Any:
     return {ParameterType.PARAMETER_BOOL: p.bool_value, ParameterType.PARAMETER_DOUBLE: p.double_value,
             ParameterType.PARAMETER_INTEGER: p.integer_value,
-            ParameterType.PARAMETER_STRING: p.string_value}.get(p.type)  # fmt: skip
+            ParameterType.PARAMETER_STRING: p.string_value}.get(p.type)
 
 
 class RosBridge:
@@ -67,7 +67,7 @@ class RosBridge:
         self._clients = {"set_mode": node.create_client(SetMode, f"{manager}/set_mode"),
                          "loco": node.create_client(LocoCommand, f"{manager}/loco_command"),
                          "estop": node.create_client(Trigger, f"{manager}/estop"),
-                         "clear_fault": node.create_client(Trigger, f"{manager}/clear_fault")}  # fmt: skip
+                         "clear_fault": node.create_client(Trigger, f"{manager}/clear_fault")}
         self._params_client = node.create_client(GetParameters, f"{manager}/get_parameters")
         self._params_pending = False
         self._params_timer = node.create_timer(0.25, self._read_node_params)  # until the node answers
@@ -77,7 +77,7 @@ class RosBridge:
         fields = mode_fields(msg)
         self._view.on_mode(fields, time.monotonic())
         key = (fields["name"], fields["transition_in_progress"], fields["damp_confirmed"], fields["last_refusal"],
-               tuple(fields["faults"]), tuple(fields["holds"]), fields["link_ok"])  # fmt: skip
+               tuple(fields["faults"]), tuple(fields["holds"]), fields["link_ok"])
         if key != self._last_mode_key:
             self._last_mode_key = key
             self._on_change()
@@ -85,7 +85,7 @@ class RosBridge:
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         mine = [DiagStatus(s.name, int.from_bytes(s.level, "little") if isinstance(s.level, bytes) else int(s.level),
                            s.message, {kv.key: kv.value for kv in s.values})
-                for s in msg.status if s.hardware_id == self.manager]  # fmt: skip
+                for s in msg.status if s.hardware_id == self.manager]
         if mine:
             self._view.on_diagnostics(mine, time.monotonic())
 
@@ -125,7 +125,7 @@ class RosBridge:
             self._cmd_vel = self.node.create_publisher(msg_type, self.cmd_vel_topic, 10)
         self._params_timer.cancel()
         self.node.get_logger().info(f"read the mode manager's parameters: cmd_vel on {self.cmd_vel_topic} as "
-                                    f"{msg_type.__name__}, watchdog {params.get('cmd_vel_timeout_s')} s")  # fmt: skip
+                                    f"{msg_type.__name__}, watchdog {params.get('cmd_vel_timeout_s')} s")
         self._on_change()
 
     # --- commands out --------------------------------------------------------------------------------

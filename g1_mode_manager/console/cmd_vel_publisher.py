@@ -15,7 +15,7 @@ from g1_mode_manager.console.teleop import Teleop, Velocity
 
 class CmdVelPublisher:
     def __init__(self, teleop: Teleop, rate_hz: float, blocked: Callable[[float], str | None],
-                 publish: Callable[[Velocity], bool], clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 publish: Callable[[Velocity], bool], clock: Callable[[], float] = time.monotonic) -> None:
         self._teleop = teleop
         self._period_s = 1.0 / rate_hz
         self._blocked = blocked

@@ -37,7 +37,7 @@ def _environment() -> None:
     rmw = os.environ.get("RMW_IMPLEMENTATION")
     if rmw and rmw != PRODUCT_RMW:
         print(f"[g1_console] RMW_IMPLEMENTATION={rmw} in the environment: running on {PRODUCT_RMW}, the product's",
-              file=sys.stderr, flush=True)  # fmt: skip
+              file=sys.stderr, flush=True)
     os.environ["RMW_IMPLEMENTATION"] = PRODUCT_RMW
     # like g1ctl: stay on this machine unless the user chose otherwise
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -100,15 +100,15 @@ def _build(node: Node) -> tuple | None:
     verbs = {name: verb.values for name, verb in LOCO_VERBS.items()}
     rules = MessageRules(modes, verbs, settings.max_message_bytes)
     teleop = Teleop(settings.heartbeat_deadline_s, settings.driver_release_s,
-                    Limits(settings.max_vx, settings.max_vy, settings.max_wz))  # fmt: skip
+                    Limits(settings.max_vx, settings.max_vy, settings.max_wz))
     hello = {"modes": modes, "verbs": {n: None if v is None else [v.start, v.stop - 1] for n, v in verbs.items()},
-             "limits": {"max_vx": settings.max_vx, "max_vy": settings.max_vy, "max_wz": settings.max_wz}}  # fmt: skip
+             "limits": {"max_vx": settings.max_vx, "max_vy": settings.max_vy, "max_wz": settings.max_wz}}
     manager = settings.manager_name(node.get_namespace())
     return node, settings, access, rules, teleop, RobotView(), manager, hello
 
 
 async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: MessageRules, teleop: Teleop,
-                 view: RobotView, manager: str, hello: dict[str, Any]) -> int:  # fmt: skip
+                 view: RobotView, manager: str, hello: dict[str, Any]) -> int:
     """Serve until SIGINT or SIGTERM; the exit status (REFUSED if the address cannot be bound)."""
     from g1_mode_manager.console.bridge import RosBridge
     from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
@@ -138,7 +138,7 @@ async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: M
     shown = f"[{host}]" if ":" in host else host
     token = " (add ?token=<the token> to open it)" if access.needs_token else ""
     print(f"g1_console ready: http://{shown}:{port}/{token}  (mode manager {manager}, cmd_vel {bridge.cmd_vel_topic}, "
-          f"{(time.monotonic() - started) * 1000:.0f} ms)", flush=True)  # fmt: skip
+          f"{(time.monotonic() - started) * 1000:.0f} ms)", flush=True)
     try:
         await stop.wait()
     finally:

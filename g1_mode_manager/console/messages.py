@@ -108,13 +108,13 @@ class MessageRules:
     """Parses messages against the names this console knows (modes, loco verbs and their value ranges)."""
 
     def __init__(self, modes: Collection[str], verbs: Mapping[str, range | None],
-                 max_bytes: int = MAX_MESSAGE_BYTES) -> None:  # fmt: skip
+                 max_bytes: int = MAX_MESSAGE_BYTES) -> None:
         self._modes = frozenset(m.lower() for m in modes)
         self._verbs = dict(verbs)
         self.max_bytes = max_bytes
         self._fields = {"teleop": {"type", "visible", "focused", "vx", "vy", "wz", "seq"},
                         "set_mode": {"type", "mode"}, "loco": {"type", "command", "value"},
-                        "estop": {"type"}, "clear_fault": {"type"}}  # fmt: skip
+                        "estop": {"type"}, "clear_fault": {"type"}}
 
     def parse(self, data: str | bytes) -> Command | Refused:
         if isinstance(data, bytes):
@@ -143,7 +143,7 @@ class MessageRules:
     def _command(self, kind: str, obj: Mapping[str, Any]) -> Command:
         if kind == "teleop":
             return Teleop(_bool(obj, "visible"), _bool(obj, "focused"), _axis(obj, "vx"), _axis(obj, "vy"),
-                          _axis(obj, "wz"), _int(obj, "seq"))  # fmt: skip
+                          _axis(obj, "wz"), _int(obj, "seq"))
         if kind == "set_mode":
             return SetMode(_name(obj, "mode", self._modes))
         if kind == "loco":

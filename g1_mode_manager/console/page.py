@@ -43,5 +43,5 @@ def build_page(static: Path = STATIC) -> Page:
         "frame-ancestors 'none'",  # no other page may frame the E-STOP and the drive pad
         "base-uri 'none'",
         "form-action 'none'",
-    ])  # fmt: skip
+    ])
     return Page(html.encode("utf-8"), csp)

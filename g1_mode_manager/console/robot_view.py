@@ -30,7 +30,7 @@ FAST_STALE_S = 0.5
 DIAGNOSTICS_STALE_S = 3.0
 #: Body checks the head shows, and the check whose value each one is.
 BODY_SUMMARY = {"battery_pct": "battery_low", "winding_max_c": "winding_overheat", "casing_max_c": "casing_overheat",
-                "tilt_rad": "tilt"}  # fmt: skip
+                "tilt_rad": "tilt"}
 
 
 @dataclass(frozen=True)
@@ -87,11 +87,11 @@ class RobotView:
         checks = [{"name": name.removeprefix("body "), "state": s.values.get("state", ""),
                    "value": _number(s.values.get("value")), "threshold": _number(s.values.get("threshold")),
                    "unit": s.values.get("unit", ""), "level": s.level}
-                  for name, s in by_name.items() if name.startswith("body ")]  # fmt: skip
+                  for name, s in by_name.items() if name.startswith("body ")]
         summary = {"link": by_name.get("robot link"), "odometry": by_name.get("odometry")}
         with self._lock:
             self._diag = _Stamped({"checks": checks, **{k: None if s is None else (s.level, s.message)
-                                                        for k, s in summary.items()}}, now)  # fmt: skip
+                                                        for k, s in summary.items()}}, now)
             tilt = next((c["value"] for c in checks if c["name"] == "tilt"), None)
             if tilt is not None:
                 self._body_tilt = _Stamped(tilt, now)
@@ -164,7 +164,7 @@ class RobotView:
                      "cmd_wz": 0.0 if commanded is None else round(commanded[2], 4),
                      "ack": self._ack.fresh(now, DIAGNOSTICS_STALE_S),
                      "meas": None if odom is None else round(odom[0], 4),
-                     "tilt": None if tilt is None or not math.isfinite(tilt) else round(tilt, 4)}  # fmt: skip
+                     "tilt": None if tilt is None or not math.isfinite(tilt) else round(tilt, 4)}
             self._history.append(point)
             while len(self._history) > self.history_len:
                 self._history.popleft()
@@ -182,9 +182,9 @@ def mode_fields(msg: Any) -> dict[str, Any]:
     except ValueError:
         target = str(msg.transition_target)
     service = ("unknown" if not msg.high_level_service_known
-               else "active" if msg.high_level_service_active else "released")  # fmt: skip
+               else "active" if msg.high_level_service_active else "released")
     return {"name": msg.name, "value": int(msg.mode), "transition_in_progress": bool(msg.transition_in_progress),
             "transition_target": target, "damp_confirmed": bool(msg.damp_confirmed), "link_ok": bool(msg.link_ok),
             "high_level_service": service, "last_refusal": msg.last_refusal, "last_error": msg.last_error,
             "robot_mismatch": msg.robot_mismatch, "reasserts": int(msg.reasserts), "faults": list(msg.faults),
-            "holds": list(msg.holds), "warnings": list(msg.warnings)}  # fmt: skip
+            "holds": list(msg.holds), "warnings": list(msg.warnings)}

@@ -61,7 +61,7 @@ class ConsoleServer:
     def __init__(self, settings: ConsoleSettings, access: Access, rules: m.MessageRules, teleop: Teleop,
                  view: RobotView, bridge: RosBridge, publisher: CmdVelPublisher,
                  blocked: Callable[[float], str | None], hello: dict[str, Any],
-                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._s = settings
         self._access = access
         self._rules = rules
@@ -131,7 +131,7 @@ class ConsoleServer:
     async def _serve_page(self, _request: web.Request) -> web.Response:
         return web.Response(body=self._page.html, content_type="text/html", charset="utf-8", headers={
             "Content-Security-Policy": self._page.csp, "Cache-Control": "no-store", "X-Content-Type-Options": "nosniff",
-            "Referrer-Policy": "no-referrer", "X-Frame-Options": "DENY"})  # fmt: skip
+            "Referrer-Policy": "no-referrer", "X-Frame-Options": "DENY"})
 
     # --- WebSocket -----------------------------------------------------------------------------------
     async def _serve_socket(self, request: web.Request) -> web.StreamResponse:
@@ -152,7 +152,7 @@ class ConsoleServer:
             await ws.send_str(json.dumps({"type": "hello", "you": page.label, **self._hello,
                                           "heartbeat_period_s": HEARTBEAT_PERIOD_S,
                                           "heartbeat_deadline_s": self._s.heartbeat_deadline_s,
-                                          "history": self._view.history()}))  # fmt: skip
+                                          "history": self._view.history()}))
             self.changed()  # the others see one more console
             await self._read(page)
         finally:
@@ -205,7 +205,7 @@ class ConsoleServer:
         self._count(page, refused.kind)
         if page.replies.take(self._clock()):
             self._spawn(self._send(page, {"type": "refused", "kind": refused.kind, "reason": refused.reason,
-                                          "count": sum(page.refused.values())}))  # fmt: skip
+                                          "count": sum(page.refused.values())}))
 
     def _call(self, page: _PageSocket, service: str, request: Any, what: str) -> None:
         """One call per service and page at a time (a second one is refused as busy); every page sees the answer."""
@@ -258,12 +258,12 @@ class ConsoleServer:
         common = self._view.snapshot(now)
         common.update(type="state", consoles=len(self._pages), driving=self._teleop.driving(),
                       refused=dict(self.refused), node_params=self._bridge.node_params,
-                      sample=self._view.sample(now, now - self._started, self._publisher.commanded(now)))  # fmt: skip
+                      sample=self._view.sample(now, now - self._started, self._publisher.commanded(now)))
         sends = []
         for page in list(self._pages.values()):
             status = asdict(self._teleop.status(page.id, now, blocked))
             sends.append(self._send(page, {**common, "teleop": status, "you": page.label,
-                                           "your_refused": dict(page.refused)}))  # fmt: skip
+                                           "your_refused": dict(page.refused)}))
         await asyncio.gather(*sends)
 
     async def _send(self, page: _PageSocket, payload: dict[str, Any]) -> None:

@@ -49,7 +49,7 @@ class ConsoleSettings:
 
     def __post_init__(self) -> None:
         positive = ("heartbeat_deadline_s", "publish_rate_hz", "state_rate_hz", "max_clients", "max_message_bytes",
-                    "max_messages_per_s")  # fmt: skip
+                    "max_messages_per_s")
         for name in positive:
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")

@@ -67,7 +67,7 @@ class JointFrame(Sequence[MotorCommand]):
         if len(commands) != NUM_JOINTS:
             raise JointCommandError(f"expected {NUM_JOINTS} motor commands, got {len(commands)}")
         return JointFrame(tuple(range(NUM_JOINTS)), *(tuple(float(getattr(c, f)) for c in commands)
-                                                      for f in ("q", "dq", "tau", "kp", "kd")))  # fmt: skip
+                                                      for f in ("q", "dq", "tau", "kp", "kd")))
 
 
 _DAMPED = MotorCommand(kd=DAMPING_KD)
@@ -140,7 +140,7 @@ def validate_joint_command(
 
 
 def _explain(names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau: Sequence[float],
-             kp: Sequence[float], kd: Sequence[float], allowed: Sequence[str]) -> None:  # fmt: skip
+             kp: Sequence[float], kd: Sequence[float], allowed: Sequence[str]) -> None:
     """Raise JointCommandError naming the first problem, joint by joint (a refused command only)."""
     _check_lengths(names, {"q": q, "dq": dq, "tau": tau, "kp": kp, "kd": kd}, allow_empty={"dq", "tau"})
     indices = _check_names(names, allowed)

@@ -60,7 +60,6 @@ _U, _I, _H, _L, _E, _F = Mode.UNINITIALIZED, Mode.IDLE, Mode.HIGH_LEVEL, Mode.LO
 _BODY, _CLEAR = Trigger.BODY_CHECK, Trigger.CLEAR_FAULT
 _CONNECT, _ACTIVE, _RELEASE = Step.CONNECT, Step.ENSURE_SERVICE_ACTIVE, Step.RELEASE_SERVICE
 
-# fmt: off
 TRANSITIONS: tuple[Transition, ...] = (
     Transition(_U, _I, (_CONNECT,),          "connected; nothing is forwarded"),
     Transition(_U, _H, (_CONNECT, _ACTIVE),  "connected; high-level service active"),
@@ -76,7 +75,6 @@ TRANSITIONS: tuple[Transition, ...] = (
     Transition(_F, _I, (),                   "fault cleared: nothing is forwarded; the robot stays damped",
                trigger=_CLEAR),
 )
-# fmt: on
 
 TABLE: dict[tuple[Mode, Mode], Transition] = {(t.source, t.target): t for t in TRANSITIONS}
 
@@ -84,7 +82,6 @@ _USER, _LAST, _WALKRUN = Step.USER_CTRL, Step.HAND_BACK_LAST, Step.HAND_BACK_WAL
 _SILENCE = Trigger.SILENCE
 
 #: low_level_path user_ctrl: the rules with LOW_LEVEL at either end, instead of the release path's.
-# fmt: off
 USER_CTRL_TRANSITIONS: tuple[Transition, ...] = (
     Transition(_U, _L, (_CONNECT, _USER), "robot under user control (fsm 1000 seen); ~/lowcmd -> rt/user_lowcmd"),
     Transition(_I, _L, (_USER,),          "robot under user control (fsm 1000 seen); ~/lowcmd -> rt/user_lowcmd"),
@@ -96,21 +93,18 @@ USER_CTRL_SILENCE = Transition(_L, _I, (_WALKRUN,), "~/lowcmd silent: robot hand
                                "standing; nothing is forwarded", trigger=_SILENCE)
 USER_CTRL_TABLE: dict[tuple[Mode, Mode], Transition] = {**TABLE, **{(t.source, t.target): t
                                                                    for t in USER_CTRL_TRANSITIONS}}
-# fmt: on
 
 #: Requesting the current mode after a robot/mode mismatch re-runs the mode's entry, as from IDLE.
-# fmt: off
 REENTRIES: dict[Mode, Transition] = {
     _I: Transition(_I, _I, (),         "re-entered: nothing is forwarded"),
     _H: Transition(_H, _H, (_ACTIVE,),  "high-level service active"),
     _L: Transition(_L, _L, (_RELEASE,), "high-level service released, robot limp"),
 }
 USER_CTRL_REENTRY = Transition(_L, _L, (_USER,), "robot under user control again (fsm 1000 seen)")
-# fmt: on
 
 
 def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST, *,
-           user_ctrl: bool = False) -> Transition | str:  # fmt: skip
+           user_ctrl: bool = False) -> Transition | str:
     """The legal transition from source to target for this trigger, or the reason it is refused.
 
     ``user_ctrl``: the low_level_path user_ctrl's rules for LOW_LEVEL. Every (source, target, trigger) is either
@@ -149,7 +143,7 @@ def lookup(source: Mode, target: Mode, trigger: Trigger = Trigger.REQUEST, *,
 
 
 def rule_for(source: Mode, target: Mode, *, mismatch: bool, trigger: Trigger = Trigger.REQUEST,
-             user_ctrl: bool = False) -> Transition | str:  # fmt: skip
+             user_ctrl: bool = False) -> Transition | str:
     """``lookup``, except that after a robot/mode mismatch the current mode's entry runs again."""
     if mismatch and source is target and source in REENTRIES and trigger is Trigger.REQUEST:
         return USER_CTRL_REENTRY if user_ctrl and source is Mode.LOW_LEVEL else REENTRIES[source]

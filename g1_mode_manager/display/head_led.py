@@ -111,7 +111,7 @@ class HeadLed:
 
     def __init__(self, mode: Callable[[], Mode], voice: Callable[[], VoicePort | None],
                  looks: Mapping[Mode, LedLook], events: RelayEvents, *, announce: bool = False,
-                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._mode = mode
         self._voice = voice
         self._looks = dict(looks)

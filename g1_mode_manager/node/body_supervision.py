@@ -18,18 +18,18 @@ from g1_mode_manager.relay.body_watch import BodyWatch
 from g1_mode_manager.relay.periodic import PeriodicWorker
 
 _LEVELS = {"fault": DiagnosticStatus.ERROR, "hold": DiagnosticStatus.ERROR, "warn": DiagnosticStatus.WARN,
-           "no data": DiagnosticStatus.STALE}  # fmt: skip
+           "no data": DiagnosticStatus.STALE}
 
 
 class BodySupervision:
     def __init__(self, port: RobotPort, machine: ModeMachine, events: RelayEvents, settings: Settings,
-                 on_error: Callable[[BaseException], None]) -> None:  # fmt: skip
+                 on_error: Callable[[BaseException], None]) -> None:
         s = settings
         self.monitor = BodyMonitor(clear_hold_s=s.fault_clear_hold_s, thresholds=s.body_thresholds())
         self.watch = BodyWatch(port, machine, self.monitor, events, estop_keys=parse_keys(s.remote_estop_keys),
                                deadman_keys=parse_keys(s.lowcmd_deadman_key),
                                fast_period_s=1.0 / s.body_check_rate_hz, slow_period_s=1.0 / s.body_check_slow_rate_hz,
-                               enabled=s.body_checks_enabled)  # fmt: skip
+                               enabled=s.body_checks_enabled)
         self._worker = PeriodicWorker("body_watch", s.body_check_rate_hz, lambda _dt: self.watch.step(), on_error,
                                       period_s=self.watch.period_s)
 
@@ -54,5 +54,5 @@ class BodySupervision:
                          KeyValue(key="unit", value=c.unit), KeyValue(key="state", value=c.state),
                          KeyValue(key="reaction_now", value=check.reaction(mode).name.lower()),
                          KeyValue(key="latched", value="" if c.latched is Reaction.NONE else c.latched.name.lower()),
-                         KeyValue(key="reference", value=check.reference)]  # fmt: skip
+                         KeyValue(key="reference", value=check.reference)]
         return status

@@ -50,7 +50,7 @@ class EstopEndpoint:
         self._log = main.get_logger()
         self.service_name = f"{main.get_fully_qualified_name()}/estop"
         self._node = rclpy.create_node(f"{main.get_name()}_estop", namespace=main.get_namespace(),
-                                       context=main.context, start_parameter_services=False)  # fmt: skip
+                                       context=main.context, start_parameter_services=False)
         self._pool = ThreadPoolExecutor(max_workers=ESTOP_THREADS, thread_name_prefix="estop")
         self._taker = StreamTaker(self._node, "estop_taker", self._error)
         self._taker.serve(Trigger, self.service_name, self._on_trigger)

@@ -25,7 +25,7 @@ _U32: Final = struct.Struct("<I")
 _LITTLE_ENDIAN_PLAIN: Final = (b"\x00\x01",)  # CDR_LE (XCDR1): Fast DDS's encoding of ROS messages
 
 Fields = tuple[tuple[str, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...],
-               tuple[float, ...]]  # fmt: skip
+               tuple[float, ...]]
 
 
 @lru_cache(maxsize=64)
@@ -50,7 +50,7 @@ class JointCommandReader:
                 pass  # not what it should be: rclpy says what it is
         msg = deserialize_message(data, JointCommand)
         return (tuple(msg.name), tuple(msg.q), tuple(msg.dq), tuple(msg.tau), tuple(msg.kp),
-                tuple(msg.kd))  # fmt: skip
+                tuple(msg.kd))
 
     def _same_names(self, data: bytes) -> bool:
         layout = self._layout

@@ -53,14 +53,14 @@ def rotate_into_body(q_wxyz: tuple[float, float, float, float], v: tuple[float, 
     # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
     cx, cy, cz = y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0]
     return (v[0] + 2 * (w * cx + y * cz - z * cy), v[1] + 2 * (w * cy + z * cx - x * cz),
-            v[2] + 2 * (w * cz + x * cy - y * cx))  # fmt: skip
+            v[2] + 2 * (w * cz + x * cy - y * cx))
 
 
 class OdometryPublisher:
     """``tick`` publishes the newest sample if it is new and fresh; ``status`` reports on /diagnostics."""
 
     def __init__(self, node: Node, port: RobotPort, mode: Callable[[], Mode], *, frame_id: str, child_frame_id: str,
-                 publish_tf: bool, enabled: bool) -> None:  # fmt: skip
+                 publish_tf: bool, enabled: bool) -> None:
         self._node = node
         self._port = port
         self._mode = mode
@@ -118,7 +118,7 @@ class OdometryPublisher:
         age = None if sample is None else sample.age_s
         st.values = [KeyValue(key="source", value=LF_ODOMMODESTATE),
                      KeyValue(key="age_s", value="" if age is None else f"{age:.3f}"),
-                     KeyValue(key="published", value=str(self._published))]  # fmt: skip
+                     KeyValue(key="published", value=str(self._published))]
         mode = self._mode()
         st.level = DiagnosticStatus.OK
         if not self._enabled:
@@ -131,13 +131,13 @@ class OdometryPublisher:
         elif mode is Mode.LOW_LEVEL:
             st.level = DiagnosticStatus.WARN
             st.message = ("LOW_LEVEL: the robot's high-level services are off and so is its odometry; odom "
-                          "stopped (nothing stale is published) until HIGH_LEVEL")  # fmt: skip
+                          "stopped (nothing stale is published) until HIGH_LEVEL")
         elif mode in (Mode.UNINITIALIZED, Mode.EMERGENCY, Mode.FAULT):
             st.message = f"{mode.name}: no odometry expected now"
         elif sample is None:
             st.level = DiagnosticStatus.WARN
             st.message = (f"no {LF_ODOMMODESTATE} from the robot: its firmware may not publish odometry (a recent "
-                          "state-estimator firmware does, in high-level mode); odom not published")  # fmt: skip
+                          "state-estimator firmware does, in high-level mode); odom not published")
         else:
             st.level = DiagnosticStatus.WARN
             st.message = f"{LF_ODOMMODESTATE} stale ({age:.1f} s): odom paused"

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 ADVICE = ("Run the mode manager in its own process with RMW_IMPLEMENTATION=rmw_fastrtps_cpp (ROS 2's default; "
           "it talks to nodes on rmw_cyclonedds_cpp over the network as usual), e.g. "
           "`RMW_IMPLEMENTATION=rmw_fastrtps_cpp ros2 run g1_mode_manager mode_manager`, or launch it with "
-          "robot.launch.py, which sets it for the node alone.")  # fmt: skip
+          "robot.launch.py, which sets it for the node alone.")
 
 
 def second_dds_stack(rmw: str | None) -> str | None:
@@ -21,7 +21,7 @@ def second_dds_stack(rmw: str | None) -> str | None:
     if rmw and "cyclonedds" in rmw:
         return (f"refusing to start: RMW {rmw} would load a second Cyclone DDS (libddsc) into this process "
                 "beside the Unitree SDK's, and two DDS stacks in one process have been reported to corrupt "
-                f"its heap. {ADVICE}")  # fmt: skip
+                f"its heap. {ADVICE}")
     return None
 
 

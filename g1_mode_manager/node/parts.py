@@ -58,7 +58,7 @@ class Parts:
 
 
 def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
-                on_change: Callable[[MachineStatus], None]) -> Parts:  # fmt: skip
+                on_change: Callable[[MachineStatus], None]) -> Parts:
     """Build the parts (nothing started yet); ``on_change`` is the machine's change listener."""
     s = settings
     events, on_error = log.events, log.worker_error
@@ -107,7 +107,7 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
 
 
 def _lowcmd_relay(s: Settings, port: RobotPort, machine: ModeMachine, link: LinkHealth, events: RelayEvents, *,
-                  deadman: Callable[[], bool]) -> LowCmdRelay:  # fmt: skip
+                  deadman: Callable[[], bool]) -> LowCmdRelay:
     """~/lowcmd -> rt/lowcmd (low_level_path release) or rt/user_lowcmd (user_ctrl)."""
     kwargs = dict(silence_timeout_s=s.lowcmd_timeout_s, exit_damping_s=s.lowcmd_exit_damping_s,
                   service_active=lambda: machine.status().service_active, deadman=deadman)

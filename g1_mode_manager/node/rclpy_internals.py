@@ -31,7 +31,7 @@ class EntityWaitSet:
     """
 
     def __init__(self, context: Context, *, subscriptions: Sequence[Subscription], services: Sequence[Service],
-                 guard: GuardCondition) -> None:  # fmt: skip
+                 guard: GuardCondition) -> None:
         self._subs = tuple(subscriptions)
         self._services = tuple(services)
         self._guard = guard

@@ -38,7 +38,7 @@ class StreamTaker:
     """Subscriptions and services on ``node`` (never added to an executor), served by ``start()``'s thread."""
 
     def __init__(self, node: Node, name: str = "stream_taker",
-                 on_error: Callable[[BaseException], None] | None = None) -> None:  # fmt: skip
+                 on_error: Callable[[BaseException], None] | None = None) -> None:
         self._node = node
         self._subs: list[Subscription] = []
         self._services: list[tuple[Service, Callable[[Any, Respond], None]]] = []
@@ -48,7 +48,7 @@ class StreamTaker:
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
     def subscribe(self, msg_type: Any, topic: str, callback: Callable[[Any], None],
-                  qos: QoSProfile | int = 10, *, raw: bool = False) -> Subscription:  # fmt: skip
+                  qos: QoSProfile | int = 10, *, raw: bool = False) -> Subscription:
         """Create a subscription served by this thread (before ``start()``). ``raw``: the callback gets the
         serialised message (CDR bytes) instead of a message object."""
         if self._thread.is_alive():
@@ -87,7 +87,7 @@ class StreamTaker:
         context = self._node.context
         try:
             wait_set = EntityWaitSet(context, subscriptions=self._subs,
-                                     services=[service for service, _callback in self._services], guard=self._guard)  # fmt: skip
+                                     services=[service for service, _callback in self._services], guard=self._guard)
             while not self._stop.is_set() and context.ok():
                 ready_services, ready_subs = wait_set.wait(WAIT_PERIOD_NS)
                 for service, callback in self._services:  # services first: they are the e-stop's

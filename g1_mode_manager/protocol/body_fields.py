@@ -49,4 +49,4 @@ def unpack_body_fields(data: bytes) -> BodyFields | None:
     temperatures = _TEMPERATURE.unpack_from(data, _TEMPERATURE_AT)
     return BodyFields(quaternion=imu[0:4], gyroscope=imu[4:7], dq=_DQ.unpack_from(data, _DQ_AT),
                       casing_c=temperatures[0::2], winding_c=temperatures[1::2],
-                      remote=bytes(data[_REMOTE_AT:_REMOTE_AT + REMOTE_BYTES]))  # fmt: skip
+                      remote=bytes(data[_REMOTE_AT:_REMOTE_AT + REMOTE_BYTES]))

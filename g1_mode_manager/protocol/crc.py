@@ -93,12 +93,12 @@ def pack_lowstate(msg: LowState_) -> bytes:
     """LowState_ packed as its C struct, without the crc word."""
     imu = msg.imu_state
     values: list = [*msg.version, msg.mode_pr, msg.mode_machine, msg.tick,
-                    *imu.quaternion, *imu.gyroscope, *imu.accelerometer, *imu.rpy, imu.temperature]  # fmt: skip
+                    *imu.quaternion, *imu.gyroscope, *imu.accelerometer, *imu.rpy, imu.temperature]
     extend = values.extend
     for m in msg.motor_state:
         t, s, r = m.temperature, m.sensor, m.reserve
         extend((m.mode, m.q, m.dq, m.ddq, m.tau_est, t[0], t[1], m.vol, s[0], s[1], m.motorstate,
-                r[0], r[1], r[2], r[3]))  # fmt: skip
+                r[0], r[1], r[2], r[3]))
     extend(msg.wireless_remote)
     extend(msg.reserve)
     return _LOWSTATE.pack(*values)

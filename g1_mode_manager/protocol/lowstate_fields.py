@@ -45,7 +45,7 @@ def decode_fields(data: bytes) -> LowStateFields:
         imu = _IMU.unpack_from(data, _IMU_AT)
         m = _MOTORS.unpack_from(data, _MOTORS_AT)
         return LowStateFields(q=m[0::3], dq=m[1::3], tau=m[2::3], quaternion=imu[0:4], gyroscope=imu[4:7],
-                              accelerometer=imu[7:10])  # fmt: skip
+                              accelerometer=imu[7:10])
     return decode_fields_slowly(data)
 
 
@@ -78,4 +78,4 @@ def decode_body_fields_slowly(data: bytes) -> BodyFields:
     imu = msg.imu_state
     return BodyFields(tuple(map(float, imu.quaternion)), tuple(map(float, imu.gyroscope)),  # type: ignore[arg-type]
                       tuple(float(m.dq) for m in motors), casing, winding,
-                      bytes(int(b) & 0xFF for b in msg.wireless_remote))  # fmt: skip
+                      bytes(int(b) & 0xFF for b in msg.wireless_remote))

@@ -13,7 +13,7 @@ JOINT_NAMES: Final = (
     "left_elbow_joint", "left_wrist_roll_joint", "left_wrist_pitch_joint", "left_wrist_yaw_joint",
     "right_shoulder_pitch_joint", "right_shoulder_roll_joint", "right_shoulder_yaw_joint",
     "right_elbow_joint", "right_wrist_roll_joint", "right_wrist_pitch_joint", "right_wrist_yaw_joint",
-)  # fmt: skip
+)
 NUM_JOINTS: Final = 29
 JOINT_INDEX: Final = {name: i for i, name in enumerate(JOINT_NAMES)}
 

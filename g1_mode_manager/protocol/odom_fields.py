@@ -44,7 +44,7 @@ def encode_odom(f: OdomFields) -> bytes:
     sec = int(f.stamp_s)
     return _HEADER + _BODY.pack(sec, int((f.stamp_s - sec) * 1e9), 0, *f.quaternion, *f.gyroscope, 0.0, 0.0, 0.0,
                                 *f.rpy, 0, 0, 0.0, 0, 0.0, *f.position, f.body_height, *f.velocity, f.yaw_speed,
-                                *_TAIL)  # fmt: skip
+                                *_TAIL)
 
 
 def unpack_odom(data: bytes) -> OdomFields | None:
@@ -53,4 +53,4 @@ def unpack_odom(data: bytes) -> OdomFields | None:
         return None
     v = _BODY.unpack_from(data, 4)
     return OdomFields(stamp_s=v[0] + v[1] * 1e-9, quaternion=v[3:7], gyroscope=v[7:10], rpy=v[13:16],
-                      position=v[21:24], body_height=v[24], velocity=v[25:28], yaw_speed=v[28])  # fmt: skip
+                      position=v[21:24], body_height=v[24], velocity=v[25:28], yaw_speed=v[28])

@@ -31,7 +31,7 @@ from typing import Final
 REMOTE_SIZE: Final = 40
 #: Key names in bit order: KEY_NAMES[i] is bit i of the 16-bit key field (Unitree's names and spelling).
 KEY_NAMES: Final = ("R1", "L1", "start", "select", "R2", "L2", "F1", "F2",
-                    "A", "B", "X", "Y", "up", "right", "down", "left")  # fmt: skip
+                    "A", "B", "X", "Y", "up", "right", "down", "left")
 KEY_BIT: Final = {name: bit for bit, name in enumerate(KEY_NAMES)}
 
 _KEYS_AT: Final = 2

@@ -44,7 +44,7 @@ class BodyMachine(Protocol):
 class BodyWatch:
     def __init__(self, port: RobotPort, machine: BodyMachine, monitor: BodyMonitor, events: RelayEvents, *,
                  estop_keys: int, deadman_keys: int, fast_period_s: float, slow_period_s: float,
-                 enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:
         self._port = port
         self._machine = machine
         self.monitor = monitor

@@ -51,7 +51,7 @@ class LocoCommands:
     commands still waiting for their outcome."""
 
     def __init__(self, port: RobotPort, gate: LocoGate, *, outcome_timeout_s: float = 3.0,
-                 motion_timeout_s: float = 6.0) -> None:  # fmt: skip
+                 motion_timeout_s: float = 6.0) -> None:
         self._port = port
         self._gate = gate
         self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s)
@@ -79,7 +79,7 @@ class LocoCommands:
 
 
 def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int, watch: OutcomeWatch,
-                     preemption: Preemption) -> LocoResult:  # fmt: skip
+                     preemption: Preemption) -> LocoResult:
     """Check the command against the mode and the robot's state, send it, then wait for its outcome.
 
     Damping is allowed wherever the sport service can answer (every connected mode but LOW_LEVEL);
@@ -128,10 +128,10 @@ def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int, 
 def _judged(what: str, seen: Seen, limit_s: float) -> LocoResult:
     if seen.preempted is not None:
         return LocoResult(False, f"{what}: code 0, {seen.preempted} after {seen.after_s:.2f} s "
-                                 f"(the robot showed {seen.shown})", 0)  # fmt: skip
+                                 f"(the robot showed {seen.shown})", 0)
     if seen.ok:
         return LocoResult(True, f"{what}: done, the robot shows {seen.shown} after {seen.after_s:.2f} s",
-                          0, seen.after_s)  # fmt: skip
+                          0, seen.after_s)
     if seen.after_s == 0.0:  # nothing to read back: the return code is all there is
         return LocoResult(True, f"{what}: code 0, {seen.shown}", 0)
     return LocoResult(False, f"{what}: code 0, but the robot showed {seen.shown} for {limit_s:.1f} s", 0)

@@ -69,7 +69,7 @@ class OutcomeWatch:
     """Waits for one verb's outcome on ``port``; remembers the stand height extremes it verified."""
 
     def __init__(self, port: RobotPort, *, timeout_s: float, motion_timeout_s: float,
-                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 clock: Callable[[], float] = time.monotonic) -> None:
         if not timeout_s > 0 or not motion_timeout_s > 0:
             raise ValueError("outcome timeouts must be > 0")
         self._port = port
@@ -131,7 +131,7 @@ class OutcomeWatch:
                     return False, shown
                 received_after_send = self._clock() - state.age_s - sent_at
                 ok = (state.task_id == task_id and state.task_time > 0.0
-                      and state.task_time <= received_after_send + TASK_TIME_SLACK_S)  # fmt: skip
+                      and state.task_time <= received_after_send + TASK_TIME_SLACK_S)
                 task = f"task {state.task_id} at {state.task_time:.2f} s" if state.task_time > 0 else "no arm task"
                 return ok, task
             case BalanceShown(mode=mode):

@@ -35,7 +35,7 @@ class LowCmdRelay:
     def __init__(self, port: RobotPort, gate: ModeGate, link: LinkMonitor, events: RelayEvents, *,
                  silence_timeout_s: float, exit_damping_s: float, service_active: Callable[[], bool],
                  deadman: Callable[[], bool] = lambda: True,
-                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._service_active = service_active
         self._deadman = deadman
         self._port = port

@@ -25,7 +25,7 @@ HOLD_S = 2.0
 class LowStateDemand:
     def __init__(self, port: RobotPort, machine: ModeMachine, arms_busy: Callable[[], bool],
                  link_ok: Callable[[Mode], bool], *, always: bool, hold_s: float = HOLD_S,
-                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self._port = port
         self._machine = machine
         self._arms_busy = arms_busy

@@ -22,7 +22,7 @@ class PeriodicWorker:
     def __init__(self, name: str, rate_hz: float, step: Callable[[float], None],
                  on_error: Callable[[BaseException], None] | None = None,
                  busy: Callable[[], bool] | None = None,
-                 period_s: Callable[[], float] | None = None) -> None:  # fmt: skip
+                 period_s: Callable[[], float] | None = None) -> None:
         """``period_s`` (optional) is asked after every step for the time to the next one (a worker whose
         rate follows its input's), instead of 1 / rate_hz."""
         if not rate_hz > 0.0:

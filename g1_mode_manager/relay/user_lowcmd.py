@@ -32,7 +32,7 @@ HAND_BACK_RETRY_S = 1.0
 
 class UserLowCmdRelay(LowCmdRelay):
     def __init__(self, *args: object, user_ctrl: UserCtrlLink, silence: SilenceReaction,
-                 hand_back: Callable[[], Outcome], hold_kp: float, hold_kd: float, **kwargs: object) -> None:  # fmt: skip
+                 hand_back: Callable[[], Outcome], hold_kp: float, hold_kd: float, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
         self._uc = user_ctrl
         self._silence = silence

@@ -102,7 +102,7 @@ class WalkJudge:
             if fresh and self._since is not None:
                 (cv, cw), (mv, mw) = self._commanded, self._measured
                 warning = (f"{WARNING} (commanded {cv:.2f} m/s, {cw:.2f} rad/s; odometry shows {mv:.2f} m/s, "
-                           f"{mw:.2f} rad/s over the last {self._after_s:g} s)")  # fmt: skip
+                           f"{mw:.2f} rad/s over the last {self._after_s:g} s)")
             return WalkReport(warning, self._judged and fresh, self._commanded, self._measured)
 
 

@@ -29,9 +29,9 @@ _log = logging.getLogger(__name__)
 
 #: The C struct LowCmd_ (1004 bytes, crc last): what the robot's CRC runs over (all but the crc word).
 _MOTOR_DTYPE: Final = np.dtype([("mode", "u1"), ("_pad", "u1", (3,)), ("q", "<f4"), ("dq", "<f4"), ("tau", "<f4"),
-                                ("kp", "<f4"), ("kd", "<f4"), ("reserve", "<u4")])  # fmt: skip
+                                ("kp", "<f4"), ("kd", "<f4"), ("reserve", "<u4")])
 _C_DTYPE: Final = np.dtype([("mode_pr", "u1"), ("mode_machine", "u1"), ("_pad", "u1", (2,)),
-                            ("motor", _MOTOR_DTYPE, (NUM_MOTOR_SLOTS,)), ("reserve", "<u4", (4,)), ("crc", "<u4")])  # fmt: skip
+                            ("motor", _MOTOR_DTYPE, (NUM_MOTOR_SLOTS,)), ("reserve", "<u4", (4,)), ("crc", "<u4")])
 _CRC_END: Final = _C_DTYPE.itemsize - 4
 _CRC_WORDS: Final = _CRC_END // 4
 _FIELDS: Final = ("q", "dq", "tau", "kp", "kd")
@@ -50,7 +50,7 @@ def check_commands(frame: str, commands: Sequence[MotorCommand], expected: int) 
 
 
 def check_columns(frame: str, q: Sequence[float], dq: Sequence[float], tau: Sequence[float], kp: Sequence[float],
-                  kd: Sequence[float]) -> None:  # fmt: skip
+                  kd: Sequence[float]) -> None:
     """The same check over columns of floats, whole columns at a time (C builtins: cheap at 500 Hz)."""
     if not all(all(map(math.isfinite, c)) for c in (q, dq, tau, kp, kd)):
         raise ValueError(f"{frame}: a command has a non-finite value")
@@ -86,7 +86,7 @@ class LowCmdFrame:
 
     def set_motor(self, index: int, mode: int, command: MotorCommand) -> None:
         self._motor[index] = (int(mode), (0, 0, 0), float(command.q), float(command.dq), float(command.tau),
-                              float(command.kp), float(command.kd), self._motor[index]["reserve"])  # fmt: skip
+                              float(command.kp), float(command.kd), self._motor[index]["reserve"])
 
     def set_columns(self, indices: tuple[int, ...], mode: int, columns: Sequence[Sequence[float]]) -> None:
         """Motors ``indices`` get ``mode`` and the five columns (q, dq, tau, kp, kd), in that order."""
@@ -122,10 +122,10 @@ class LowCmdFrame:
         """The same frame as a LowCmd_ (crc set), for the SDK's APIs and for checks."""
         m = self._motor
         motors = [MotorCmd_(int(m["mode"][i]), *(float(m[f][i]) for f in _FIELDS), int(m["reserve"][i]))
-                  for i in range(NUM_MOTOR_SLOTS)]  # fmt: skip
+                  for i in range(NUM_MOTOR_SLOTS)]
         return LowCmd_(mode_pr=int(self._buf["mode_pr"][0]), mode_machine=int(self._buf["mode_machine"][0]),
                        motor_cmd=motors, reserve=[int(v) for v in self._buf["reserve"][0]],
-                       crc=self.pack()[1])  # fmt: skip
+                       crc=self.pack()[1])
 
 
 class FrameWriter:

@@ -71,12 +71,12 @@ class LocoClient(RpcClient):
         self.call("SetSwingHeight", api.LOCO_SET_SWING_HEIGHT, {"data": float(height)}, timeout_s=timeout_s)
 
     def set_velocity(self, vx: float, vy: float, wz: float, duration: float = api.MOVE_DURATION_S, *,
-                     timeout_s: float | None = None) -> None:  # fmt: skip
+                     timeout_s: float | None = None) -> None:
         """SetVelocity: body velocity (m/s, m/s, rad/s) held for ``duration`` s. NaN/inf raise ValueError."""
         self.call("SetVelocity", api.LOCO_SET_VELOCITY, _velocity(vx, vy, wz, duration), timeout_s=timeout_s)
 
     def send_velocity(self, vx: float, vy: float, wz: float, duration: float = api.MOVE_DURATION_S, *,
-                      timeout_s: float | None = None) -> PendingCall:  # fmt: skip
+                      timeout_s: float | None = None) -> PendingCall:
         """SetVelocity written at once, its reply awaited by the returned call's ``wait()``; raises
         RobotError (3102) at once if no server is matched (nothing waits for one)."""
         return self.send("SetVelocity", api.LOCO_SET_VELOCITY, _velocity(vx, vy, wz, duration), timeout_s=timeout_s)
@@ -133,7 +133,7 @@ class LocoClient(RpcClient):
         self.set_balance_mode(mode, timeout_s=timeout_s)
 
     def move(self, vx: float, vy: float, wz: float, continuous: bool = False, *,
-             timeout_s: float | None = None) -> None:  # fmt: skip
+             timeout_s: float | None = None) -> None:
         """SetVelocity for 1 s, or for 10 days when ``continuous`` (until the next command)."""
         duration = api.MOVE_CONTINUOUS_DURATION_S if continuous else api.MOVE_DURATION_S
         self.set_velocity(vx, vy, wz, duration, timeout_s=timeout_s)

@@ -51,7 +51,7 @@ def encode(cdr_header: bytes, request_id: int, api_id: int, parameter: str, nore
     text = parameter.encode("utf-8") + b"\0"
     pad = -len(text) % 4  # the sequence's length is 4-aligned
     return b"".join((cdr_header, _HEADER.pack(request_id, api_id, 0, 0, noreply), len(text).to_bytes(4, "little"),
-                     text, b"\0" * pad, _EMPTY_BINARY))  # fmt: skip
+                     text, b"\0" * pad, _EMPTY_BINARY))
 
 
 class RequestWriter:
@@ -75,7 +75,7 @@ class RequestWriter:
         try:
             probes = [(1_700_000_000_123_456_789, 7105, '{"velocity": [0.3, -0.1, 0.5], "duration": 1.0}', False),
                       (42, 7101, '{"data": 1}', True), (3, 1001, "", False), (4, 1002, '{"name": "ai"}', False),
-                      (5, 1010, '{"text": "é, ü"}', False)]  # fmt: skip
+                      (5, 1010, '{"text": "é, ü"}', False)]
             for probe in probes:
                 expected = make_request(*probe).serialize(use_version_2=writer_use_version_2(self._writer))
                 expected = expected.ljust((len(expected) + 3) & ~3, b"\0")

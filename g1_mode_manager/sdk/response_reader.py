@@ -102,10 +102,10 @@ class ResponseReader:
     def _decoding_is_exact() -> bool:
         try:
             for probe in ((1_700_000_000_123_456_789, 7001, 0, '{"data":500}'), (-5, 1001, 3104, ""),
-                          (7, 1010, -1, '{"text": "é ü"}'), (8, 1002, 7301, "abc")):  # fmt: skip
+                          (7, 1010, -1, '{"text": "é ü"}'), (8, 1002, 7301, "abc")):
                 request_id, api_id, code, data = probe
                 response = Response_(ResponseHeader_(RequestIdentity_(request_id, api_id), ResponseStatus_(code)),
-                                     data, [])  # fmt: skip
+                                     data, [])
                 if decode(response.serialize()) != (request_id, Reply(api_id, code, data)):
                     _log.warning("Response_ decoding differs from cyclonedds' for %r: using its deserialiser", probe)
                     return False

@@ -48,7 +48,7 @@ class UnitreeRobot:
     """
 
     def __init__(self, domain: int, interface: str, rpc_timeout_s: float = 1.0, *, mode_timeout_s: float = 5.0,
-                 ready_budget_s: float = 3.0, user_ctrl: bool = False) -> None:  # fmt: skip
+                 ready_budget_s: float = 3.0, user_ctrl: bool = False) -> None:
         if not rpc_timeout_s > 0 or not mode_timeout_s > 0:
             raise ValueError("timeouts must be > 0")
         self.domain = int(domain)
@@ -113,7 +113,7 @@ class UnitreeRobot:
             except RobotError as error:
                 raise RobotError("connect", error.code, f"motion_switcher did not answer within "
                                  f"{self.ready_budget_s:.1f} s (domain {self.domain}, "
-                                 f"interface {self.interface!r})") from error  # fmt: skip
+                                 f"interface {self.interface!r})") from error
             finally:
                 self.connect_time_s = time.monotonic() - start
             self._ready = True
@@ -253,7 +253,7 @@ class UnitreeRobot:
         listener = self._sport_listener
         if listener is not None:
             listener(SportState(fsm_id=int(sample.fsm_id), fsm_mode=int(sample.fsm_mode), task_id=int(sample.task_id),
-                                task_time=float(sample.task_time), age_s=0.0))  # fmt: skip
+                                task_time=float(sample.task_time), age_s=0.0))
 
     def lowstate_age_s(self) -> float | None:
         return None if self._lowstate is None else self._lowstate.age_s()
@@ -319,7 +319,7 @@ class UnitreeRobot:
             with self._voice_lock:
                 voice = self._voice
             for part in (self._sport, self._lowstate, self._lf_lowstate, self._battery, self._odom, self._arm, self._lowcmd,
-                         self._user_lowcmd, self._loco, self._switcher, voice):  # fmt: skip
+                         self._user_lowcmd, self._loco, self._switcher, voice):
                 if part is not None:
                     try:
                         part.close()

@@ -83,7 +83,7 @@ class RpcClient(Client):
         return self.send(name, api_id, parameter, timeout_s=timeout_s, match_wait=True).wait()
 
     def send(self, name: str, api_id: int, parameter: Any = None, *, timeout_s: float | None = None,
-             match_wait: bool = False) -> PendingCall:  # fmt: skip
+             match_wait: bool = False) -> PendingCall:
         """Write a request now; its reply is awaited by the returned call's ``wait()``.
 
         With ``match_wait`` the write first waits (within the timeout) for a matched server, as the SDK
@@ -142,7 +142,7 @@ class PendingCall:
     __slots__ = ("_api_id", "_client", "_deadline", "_name", "_pending", "_request_id", "_text", "_timeout_s")
 
     def __init__(self, client: RpcClient, name: str, api_id: int, text: str, request_id: int, pending: Pending,
-                 timeout_s: float, deadline: float) -> None:  # fmt: skip
+                 timeout_s: float, deadline: float) -> None:
         self._client = client
         self._name = name
         self._api_id = api_id

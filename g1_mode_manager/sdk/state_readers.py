@@ -50,7 +50,7 @@ class LatestSample(Generic[T]):
     """
 
     def __init__(self, topic: str, msg_type: type, decode: Callable[[bytes], T],
-                 on_sample: Callable[[T], None] | None = None) -> None:  # fmt: skip
+                 on_sample: Callable[[T], None] | None = None) -> None:
         participant = sdk_participant()
         self.topic = topic
         self._decode = decode
@@ -213,10 +213,10 @@ def decode_lowstate(data: bytes) -> LowStateSnapshot:
     deserialisation costs far more, too much at 500 Hz)."""
     if data[0] == 0 and data[1] in _LITTLE_ENDIAN_ENCODINGS and len(data) >= _Q_AT + _Q.size:
         return LowStateSnapshot(mode_machine=data[_MODE_MACHINE_AT], tick=_TICK.unpack_from(data, _TICK_AT)[0],
-                                data=data)  # fmt: skip
+                                data=data)
     msg = LowState_.deserialize(data)
     return LowStateSnapshot(mode_machine=int(msg.mode_machine), tick=int(msg.tick),
-                            q=tuple(float(m.q) for m in msg.motor_state[:NUM_JOINTS]), data=data)  # fmt: skip
+                            q=tuple(float(m.q) for m in msg.motor_state[:NUM_JOINTS]), data=data)
 
 
 #: A measured pose older than this is not handed out (the robot moves; 500 Hz gives ~2 ms old ones).
@@ -284,4 +284,4 @@ class SportStateReader(LatestSample[SportModeState_]):
         if sample is None:
             return None
         return SportState(fsm_id=int(sample.fsm_id), fsm_mode=int(sample.fsm_mode), task_id=int(sample.task_id),
-                          task_time=float(sample.task_time), age_s=time.monotonic() - stamp)  # fmt: skip
+                          task_time=float(sample.task_time), age_s=time.monotonic() - stamp)

@@ -38,7 +38,7 @@ def _watch(mode: Mode, **kw) -> tuple[BodyWatch, ModeMachine, FakeRobotPort, Clo
     clock = Clock()
     watch = BodyWatch(port, machine, BodyMonitor(clear_hold_s=1.0), RelayEvents(lambda lv, t: logs.append((lv, t)),
                       throttle_s=0.0), estop_keys=kw.pop("estop_keys", L2_B), deadman_keys=kw.pop("deadman_keys", 0),
-                      fast_period_s=0.01, slow_period_s=0.05, clock=clock, **kw)  # fmt: skip
+                      fast_period_s=0.01, slow_period_s=0.05, clock=clock, **kw)
     port.state = state()
     return watch, machine, port, clock, logs
 

@@ -69,7 +69,7 @@ def _body_fault(rng: random.Random) -> dict[str, Any]:
     lasts = round(rng.uniform(*TRANSIENT_S), 3)
     if kind == "push":
         push = {"force": round(rng.uniform(50, 700)), "direction": round(rng.uniform(-3.14, 3.14), 3),
-                "duration": round(rng.uniform(0.1, 0.4), 3)}  # fmt: skip
+                "duration": round(rng.uniform(0.1, 0.4), 3)}
         return {"set": {"push": push}, "lasts": None}
     if kind == "overheat":
         motor, hot = str(rng.randrange(29)), rng.choice([(60, 125), (90, 60), (70, 140), (100, 60)])

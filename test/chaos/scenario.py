@@ -129,7 +129,7 @@ def _forwarded_motion(e: Event, *, arms: bool = True) -> str:
 
 
 def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[float, Any]], *,
-                  killed_at: float = float("inf")) -> list[str]:  # fmt: skip
+                  killed_at: float = float("inf")) -> list[str]:
     """FAULT (a body check's protective stop) and holds, on the robot's record: FAULT is left only to IDLE or
     EMERGENCY; from the moment it was claimed nothing but damping reaches the robot until it is left, and the
     robot is seen damped within FAULT_DAMPED_S; while a hold is claimed no Move and no user lowcmd reach it.

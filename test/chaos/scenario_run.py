@@ -89,9 +89,9 @@ class ScenarioRun:
             coverage.add(landing, self._features(claims))
             with claims.lock:
                 claims.restarts = [(t_kill, next((t for t in ops.mode_calls if t > t_kill), float("inf")))
-                                   for t_kill, _ in claims.restarts]  # fmt: skip
+                                   for t_kill, _ in claims.restarts]
             first_damp = next((e["t"] for e in events if e["k"] == "req" and e["t"] >= claims.t_estop
-                               and e.get("api") == 7101 and e.get("p") == DAMP), None)  # fmt: skip
+                               and e.get("api") == 7101 and e.get("p") == DAMP), None)
             if first_damp is not None and landing.connected and not claims.restarts:
                 latencies.append(first_damp - claims.t_estop)
             crashed = [] if alive else [f"the node died during the scenario (exit {stack.node.proc.returncode}): "
@@ -205,7 +205,7 @@ class ScenarioRun:
                 *(["node SIGKILLed and restarted"] if p.kill_at is not None else []),
                 *(["FAULT entered"] if any(m.mode == Mode.FAULT for m in modes) else []),
                 *(["holds"] if any(m.holds for m in modes) else []),
-                *(["hung in the gantry"] if p.gantry else [])]  # fmt: skip
+                *(["hung in the gantry"] if p.gantry else [])]
 
 
 def _row(claims: Claims) -> str:
@@ -218,7 +218,7 @@ def _row(claims: Claims) -> str:
 
 def _mode_name(value: int) -> str:
     names = {Mode.UNINITIALIZED: "UNINITIALIZED", Mode.IDLE: "IDLE", Mode.HIGH_LEVEL: "HIGH_LEVEL",
-             Mode.LOW_LEVEL: "LOW_LEVEL", Mode.EMERGENCY: "EMERGENCY", Mode.FAULT: "FAULT"}  # fmt: skip
+             Mode.LOW_LEVEL: "LOW_LEVEL", Mode.EMERGENCY: "EMERGENCY", Mode.FAULT: "FAULT"}
     return names.get(value, str(value))
 
 

@@ -91,7 +91,7 @@ def parts(half: int) -> list:
     worker, and the two halves run side by side on two."""
     bounds = [N * k // PARTS for k in range(PARTS + 1)]
     halves = [pytest.param(SEED + lo, hi - lo, id=f"seeds{SEED + lo}-{SEED + hi - 1}")
-              for lo, hi in itertools.pairwise(bounds) if hi > lo]  # fmt: skip
+              for lo, hi in itertools.pairwise(bounds) if hi > lo]
     return halves[half::2]
 
 

@@ -96,7 +96,7 @@ def test_a_fault_cut_short_by_a_kill_is_not_a_fault_left_to_uninitialized() -> N
 def test_a_killed_nodes_fault_claim_that_arrives_after_the_kill_is_judged_in_its_own_life() -> None:
     # the killed node's FAULT, published before it died, received 3 ms after the kill; then its successor
     modes = [_mode(5, "FAULT", t=2.0), _mode(5, "FAULT", t=5.003), _mode(0, "UNINITIALIZED", t=6.5),
-             _mode(4, "EMERGENCY", t=9.0)]  # fmt: skip
+             _mode(4, "EMERGENCY", t=9.0)]
     assert _judged([], [(5.0, 8.0)], modes) == []
     # a node that claims FAULT and then UNINITIALIZED in its own life is still flagged
     own_life = [_mode(5, "FAULT", t=2.0), _mode(0, "UNINITIALIZED", t=2.5), _mode(4, "EMERGENCY", t=9.0)]

@@ -19,18 +19,18 @@ def _state(t: float, fsm: int) -> dict:
 
 def _damp(t: float, noreply: bool) -> dict:
     return {"k": "req", "t": t, "svc": "sport", "api": api_ids.LOCO_SET_FSM_ID, "p": json.dumps({"data": 1}),
-            "noreply": noreply}  # fmt: skip
+            "noreply": noreply}
 
 
 def _mode(mode: int, damp_confirmed: bool = False, transition: bool = False) -> SimpleNamespace:
     return SimpleNamespace(mode=mode, name=str(mode), damp_confirmed=damp_confirmed, holds=[],
-                           transition_in_progress=transition)  # fmt: skip
+                           transition_in_progress=transition)
 
 
 def _claims(t_fault: float, t_estop: float) -> Claims:
     claims = Claims(t_estop=t_estop)
     claims.modes = [(1.0, _mode(HIGH_LEVEL)), (t_fault, _mode(FAULT)), (t_fault + 0.5, _mode(FAULT, True)),
-                    (t_estop + 0.01, _mode(EMERGENCY, True))]  # fmt: skip
+                    (t_estop + 0.01, _mode(EMERGENCY, True))]
     return claims
 
 
@@ -85,7 +85,7 @@ def test_a_successors_low_level_frames_are_not_judged_in_the_killed_nodes_life()
     claims = Claims(t_estop=t_estop)
     claims.modes = [(1.0, _mode(LOW_LEVEL)), (5.0, _mode(LOW_LEVEL, transition=True)), (5.01, _mode(IDLE)),
                     (9.5, _mode(0)), (11.9, _mode(IDLE, transition=True)), (12.0, _mode(LOW_LEVEL)),
-                    (t_estop + 0.01, _mode(EMERGENCY, True))]  # fmt: skip
+                    (t_estop + 0.01, _mode(EMERGENCY, True))]
     claims.restarts = [(8.0, 9.0)]
     frames = [_lowcmd(12.1 + 0.01 * k) for k in range(10)]
     events = [_state(0.0, 0), *frames, _damp(t_estop + 0.001, True), _damp(t_estop + 0.002, False), _state(t_estop + 0.003, 1)]

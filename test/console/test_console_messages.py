@@ -63,7 +63,7 @@ def test_the_known_messages_parse() -> None:
     ('{"type": "loco", "command": "backflip"}', BAD_VALUE),
     ('{"type": "loco", "command": "speed_mode", "value": 4}', BAD_VALUE),
     ('{"type": "loco", "command": "speed_mode", "value": 1.5}', BAD_VALUE),
-])  # fmt: skip
+])
 def test_bad_messages_are_refused_with_their_kind(data: str | bytes, kind: str) -> None:
     refused = RULES.parse(data)
     assert isinstance(refused, Refused), refused

@@ -74,7 +74,7 @@ def test_with_a_token_every_request_without_it_gets_401_and_nothing_else(tmp_pat
     c = start_console(f"token_file:={token_file}")
     try:
         for url, headers in ((c.url, None), (c.url + "?token=wrong", None), (c.url + "nothing-here", None),
-                             (c.url, {"Authorization": "Bearer wrong"}), (c.url + "?token=", None)):  # fmt: skip
+                             (c.url, {"Authorization": "Bearer wrong"}), (c.url + "?token=", None)):
             status, body = http_get(url, headers)
             assert status == 401, (url, status)
             assert "<html" not in body and "script" not in body  # nothing of the page
@@ -109,7 +109,7 @@ def test_bad_input_is_refused_and_counted_and_the_console_keeps_serving(console:
         page.send('{"type": "teleop", "visible": true, "focused": true, "vx": 9, "vy": 0, "wz": 0, "seq": 1}')
         page.send(b"\x00\x01binary")
         flood = [json.dumps({"type": "teleop", "visible": True, "focused": True, "vx": 0.0, "vy": 0.0, "wz": 0.0,
-                             "seq": i}) for i in range(2000)]  # fmt: skip
+                             "seq": i}) for i in range(2000)]
         t_flood = time.monotonic()
         page.send_many(flood)
         flood_s = time.monotonic() - t_flood
@@ -117,7 +117,7 @@ def test_bad_input_is_refused_and_counted_and_the_console_keeps_serving(console:
         def counted(m: dict) -> bool:
             r = m.get("your_refused", {})
             return (m["type"] == "state" and r.get("malformed") == 2 and r.get("oversized") == 1
-                    and r.get("unknown") == 1 and r.get("bad_value") == 1 and r.get("flood", 0) >= 1500)  # fmt: skip
+                    and r.get("unknown") == 1 and r.get("bad_value") == 1 and r.get("flood", 0) >= 1500)
 
         page.send({"type": "estop"})  # right after the flood, its bucket empty: an e-stop still goes through
         answer = page.wait_for(lambda m: m["type"] == "answer" and m["to"] == "estop")
@@ -153,7 +153,7 @@ def test_one_page_drives_the_other_is_told_who_and_a_silent_page_lets_go(console
         t_both = time.monotonic()
         second.hold(vx=-1.0)
         told = second.wait_for(lambda m: m["type"] == "state" and m["teleop"]["driver"] == me
-                               and m["teleop"]["why_not"] == f"{me} drives")  # fmt: skip
+                               and m["teleop"]["why_not"] == f"{me} drives")
         assert not told["teleop"]["you_drive"] and not told["teleop"]["publishing"]
         time.sleep(1.0)
         both = manager.twists.since(t_both)

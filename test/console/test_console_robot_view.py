@@ -27,7 +27,7 @@ def diagnostics(moves_sent: int, commanded: float, tilt: str = "0.050") -> list[
             DiagStatus(prefix + "body battery_low", 0, "ok", {"value": "87.000", "threshold": "20", "unit": "%",
                                                               "state": "ok"}),
             DiagStatus(prefix + "body winding_overheat", 0, "ok", {"value": "", "threshold": "120", "unit": "°C",
-                                                                   "state": "no data"})]  # fmt: skip
+                                                                   "state": "no data"})]
 
 
 def test_driving_is_blocked_unless_the_node_is_fresh_in_high_level_and_free_to_move() -> None:

@@ -32,7 +32,7 @@ def test_dead_man_holds_only_while_every_condition_does() -> None:
     assert dm.why_not(clock()).startswith("heartbeat late")
     assert dm.axes(clock()) is None
     for msg, why in ((held(visible=False), "page hidden"), (held(focused=False), "window not focused"),
-                     (held(0.0), "no key or stick held")):  # fmt: skip
+                     (held(0.0), "no key or stick held")):
         dm.heard(msg, clock())
         assert dm.why_not(clock()) == why
         assert dm.axes(clock()) is None

@@ -103,7 +103,7 @@ def test_fault_is_entered_only_by_a_body_check_and_left_only_by_clear_or_estop()
 @pytest.mark.parametrize(("source", "target"), ALL_PAIRS, ids=lambda m: m.name)
 @pytest.mark.parametrize("trigger", list(Trigger), ids=lambda t: t.value)
 def test_the_user_ctrl_path_has_the_same_pairs_plus_the_silence_hand_back(source: Mode, target: Mode,
-                                                                           trigger: Trigger) -> None:  # fmt: skip
+                                                                           trigger: Trigger) -> None:
     rule = lookup(source, target, trigger, user_ctrl=True)
     legal = BY_TRIGGER[trigger] | ({(LO, ID)} if trigger is Trigger.SILENCE else set())
     if (source, target) in legal:

@@ -152,10 +152,10 @@ class _Stacks:
         self._clients: list[RosClient] = []
 
     def start(self, faults: dict | None = None, node_params: Sequence[str] = (),
-              bridge_args: Sequence[str] = ()) -> Stack:  # fmt: skip
+              bridge_args: Sequence[str] = ()) -> Stack:
         record = self._records / f"sim_record_{len(self._started)}.jsonl"
         bridge = start_sim_bridge(self._sdk, speed=1.0, faults=faults,
-                                  extra_args=("--record", str(record), *bridge_args))  # fmt: skip
+                                  extra_args=("--record", str(record), *bridge_args))
         self._started.append(bridge)
         node = start_mode_manager(self._sdk, *node_params)
         self._started.append(node)

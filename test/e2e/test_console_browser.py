@@ -115,7 +115,7 @@ def _page_shows(driver, element_id: str, predicate, timeout_s: float = 10.0) -> 
 def _moves(record: SimRecord, since: float, *, stop: bool) -> list[dict]:
     """SetVelocity requests the robot received since ``since``: StopMoves (0, 0, 0) or Moves."""
     return [e for e in record.events(since) if e["k"] == "req" and e.get("api") == api_ids.LOCO_SET_VELOCITY
-            and (velocity_of(e) == [0.0, 0.0, 0.0]) == stop]  # fmt: skip
+            and (velocity_of(e) == [0.0, 0.0, 0.0]) == stop]
 
 
 def _shot(r: Rig, name: str) -> None:

@@ -207,7 +207,7 @@ def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(shared_stack
     command = JointState(name=["left_shoulder_pitch_joint"], position=[target])
     # the ramp 2 s, then hold: at least 4 s, longer while a loaded sim has not followed yet
     at_target = _publish_until(lambda: arm.publish(command), lambda: abs(q("left_shoulder_pitch_joint") - target) < 0.15,
-                               0.05, 4.0, 12.0)  # fmt: skip
+                               0.05, 4.0, 12.0)
     assert node_readers() == 1, "the arm commands did not subscribe rt/lowstate again"
     reached = q("left_shoulder_pitch_joint")
     assert at_target, f"shoulder at {reached:.3f}, target {target}"
@@ -227,7 +227,7 @@ def test_lowcmd_moves_a_joint_in_low_level_only(shared_stack_factory) -> None:
     time.sleep(1.0)  # the limp robot settles in the gantry
     command = JointCommand(name=["left_elbow_joint"], q=[1.2], dq=[0.0], tau=[0.0], kp=[40.0], kd=[1.0])
     reached = _publish_until(lambda: low.publish(command), lambda: abs(q("left_elbow_joint") - 1.2) < 0.15,
-                             0.01, 2.0, 10.0)  # fmt: skip
+                             0.01, 2.0, 10.0)
     elbow = q("left_elbow_joint")
     frames = stack.frames("lowcmd")
     print(f"lowcmd: elbow at {elbow:.2f} rad (target 1.2); frames {frames}")

@@ -70,7 +70,7 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> No
 
     # posture motions: the answer comes only once the motion finished (seconds after SetFsmId's 0)
     for command, fsm in (("damp", FsmId.DAMP), ("stand_up", FsmId.STAND_UP), ("sit", FsmId.SIT),
-                         ("stand_up", FsmId.STAND_UP)):  # fmt: skip
+                         ("stand_up", FsmId.STAND_UP)):
         sent, r, answered = _timed(lambda c=command: stack.loco(c))
         assert r.success and r.code == 0 and r.outcome_s >= 0.0, (command, r.message)
         accepted = _answered_after(stack, api_ids.LOCO_SET_FSM_ID, sent)
@@ -90,7 +90,7 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> No
     for command, value, getter in (("continuous_gait", 1, api_ids.LOCO_GET_BALANCE_MODE),
                                    ("balance_stand", 0, api_ids.LOCO_GET_BALANCE_MODE),
                                    ("low_stand", 0, api_ids.LOCO_GET_STAND_HEIGHT),
-                                   ("high_stand", 0, api_ids.LOCO_GET_STAND_HEIGHT)):  # fmt: skip
+                                   ("high_stand", 0, api_ids.LOCO_GET_STAND_HEIGHT)):
         sent, r, answered = _timed(lambda c=command, v=value: stack.loco(c, v))
         assert r.success and r.outcome_s >= 0.0, (command, r.message)
         set_done = [e["t"] for e in requests(stack.record.events(sent), kind="done") if e["api"] != getter]
@@ -101,7 +101,7 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> No
     # g1ctl prints the same answer, with the time to the outcome (gait 0: a continuous gait would leave the
     # robot stepping, dynamic, where the next tests could not stand it still again)
     cli = subprocess.run(python_module("g1_mode_manager.cli.main", "loco", "continuous_gait", "0"),
-                         capture_output=True, text=True, timeout=60)  # fmt: skip
+                         capture_output=True, text=True, timeout=60)
     assert cli.returncode == 0, cli.stdout + cli.stderr
     assert cli.stdout.startswith("success=True code=0 outcome after "), cli.stdout
     assert "continuous_gait (value 0): done, the robot shows balance mode 0 after" in cli.stdout, cli.stdout

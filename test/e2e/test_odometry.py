@@ -95,7 +95,7 @@ def test_odom_and_tf_follow_the_robots_estimate_over_a_walk_and_a_turn(stack, he
         candidates = [e for e in published if arrived - 2.0 <= e["t"] <= arrived + 0.25]
         assert candidates, "an odom message with no robot sample before it"
         cm, deg = min((100 * math.hypot(p.position.x - e["x"], p.position.y - e["y"]),
-                       abs(math.degrees(_angle(_yaw(p.orientation) - e["yaw"])))) for e in candidates)  # fmt: skip
+                       abs(math.degrees(_angle(_yaw(p.orientation) - e["yaw"])))) for e in candidates)
         worst_cm, worst_deg = max(worst_cm, cm), max(worst_deg, deg)
     est = published[-1]
     truth_off = math.hypot(est["x"] - est["true_x"], est["y"] - est["true_y"])
@@ -141,7 +141,7 @@ def test_moves_acknowledged_by_a_robot_that_does_not_walk_are_reported(stack, he
     assert wait_until(lambda: "not walking" in (heard.status("walking") or ""), 3.0), heard.status("walking")
     driver.join()
     acknowledged = [e for e in requests(stack.record.events(since), api_ids.LOCO_SET_VELOCITY, kind="done")
-                    if e["code"] == 0]  # fmt: skip
+                    if e["code"] == 0]
     assert len(acknowledged) > 10, "the robot did not acknowledge the Moves"
     moved = [math.hypot(e["true_x"] - e0["true_x"], e["true_y"] - e0["true_y"])
              for e0 in of_kind(stack.record.events(since), "odom")[:1] for e in of_kind(stack.record.events(since), "odom")]

@@ -55,7 +55,7 @@ def two_robots(sdk_channels: int, tmp_path):
         for ns, domain in (("/g1_a", sdk_channels), ("/g1_b", allocate_sdk_domain())):
             path = tmp_path / f"{ns.strip('/')}.jsonl"
             bridge = start_sim_bridge(domain, speed=1.0, extra_args=(  # hung: one of them goes to LOW_LEVEL
-                "--record", str(path), "--no-ros-publish", "--gantry", "--ros-args", "-r", f"__ns:={ns}"))  # fmt: skip
+                "--record", str(path), "--no-ros-publish", "--gantry", "--ros-args", "-r", f"__ns:={ns}"))
             procs.append(bridge)
             robots.append(Robot(ns, domain, SimRecord(path), bridge, ros))
         for robot in robots:

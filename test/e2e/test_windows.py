@@ -112,7 +112,7 @@ def test_an_estop_answers_within_its_budget_while_a_select_mode_never_returns(sh
     never damped. The pre-empted mode change is answered too, once its SelectMode gave up."""
     stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 30.0}}, bridge_args=("--gantry",),
                                  node_params=(f"estop_timeout_s:={ESTOP_TOTAL_S}", f"estop_call_timeout_s:={ESTOP_CALL_S}",
-                                              f"select_timeout_s:={SELECT_S}"))  # fmt: skip
+                                              f"select_timeout_s:={SELECT_S}"))
     assert stack.set_mode("low_level").success
     t_call = time.monotonic()
     pending = _in_thread(lambda: stack.set_mode("high_level"))

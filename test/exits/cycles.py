@@ -56,7 +56,7 @@ def main(sdk_domain: int, argv: list[str] | None = None) -> int:
     def start(k: int) -> tuple[str, ManagedProcess]:
         ns = f"/exits{k % NAMESPACES}"
         return ns, start_mode_manager(sdk_domain, remaps=(f"__ns:={ns}", f"/estop:={ns}/estop",
-                                                          f"/cmd_vel:={ns}/cmd_vel"))  # fmt: skip
+                                                          f"/cmd_vel:={ns}/cmd_vel"))
 
     try:
         with ThreadPoolExecutor(1) as starter:

@@ -26,7 +26,7 @@ def test_fresh_stamped_commands_pass_and_stale_ones_are_dropped_and_counted() ->
     node = ModeManagerNode(port_factory=lambda _s: port, context=context,
                            parameter_overrides=[Parameter("cmd_vel_stamped", value=True),
                                                 Parameter("cmd_vel_timeout_s", value=0.5),
-                                                Parameter("diagnostics_rate_hz", value=10.0)])  # fmt: skip
+                                                Parameter("diagnostics_rate_hz", value=10.0)])
     client = rclpy.create_node("stamped_client", context=context)
     executor = MultiThreadedExecutor(num_threads=4, context=context)
     executor.add_node(node)

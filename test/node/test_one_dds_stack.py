@@ -25,7 +25,7 @@ def test_other_rmws_pass(rmw: str | None) -> None:
 def test_the_node_refuses_to_start_on_rmw_cyclonedds() -> None:
     env = {**os.environ, "RMW_IMPLEMENTATION": "rmw_cyclonedds_cpp"}
     done = subprocess.run(python_module("g1_mode_manager.node.main"), env=env, capture_output=True, text=True,
-                          timeout=60)  # fmt: skip
+                          timeout=60)
     assert done.returncode == 2, done.stdout + done.stderr
     assert "refusing to start: RMW rmw_cyclonedds_cpp would load a second Cyclone DDS" in done.stderr, done.stderr
     assert "RMW_IMPLEMENTATION=rmw_fastrtps_cpp" in done.stderr

@@ -20,7 +20,7 @@ from support.mode_manager import wait_until
 
 HOME = "see g1_mode_manager/node/rclpy_internals.py"
 WAIT_SET_CALLS = ("clear_entities", "add_subscription", "add_service", "add_guard_condition", "wait",
-                  "get_ready_entities")  # fmt: skip
+                  "get_ready_entities")
 
 
 def changed(what: str) -> str:
@@ -51,7 +51,7 @@ def wait_ready(node: Node, entity, guard) -> bool:
     """One pass of the stream taker's loop for one subscription or service: is it ready within 5 s?"""
     is_service = isinstance(entity, Service)
     wait_set = EntityWaitSet(node.context, subscriptions=[] if is_service else [entity],
-                             services=[entity] if is_service else [], guard=guard)  # fmt: skip
+                             services=[entity] if is_service else [], guard=guard)
     services, subs = wait_set.wait(5_000_000_000)
     return (services if is_service else subs) == [entity]
 
@@ -81,6 +81,6 @@ def test_a_service_request_is_waited_for_and_taken(node: Node) -> None:
     assert wait_ready(node, service, guard), changed("a WaitSet never saw a service request")
     request, header = take_request(service)
     assert isinstance(request, Trigger.Request) and header is not None, changed(
-        "Service.handle.service_take_request is not (request, header)")  # fmt: skip
+        "Service.handle.service_take_request is not (request, header)")
     _request, header = take_request(service)
     assert header is None, changed("service_take_request of an empty service has a header")

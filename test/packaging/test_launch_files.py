@@ -29,7 +29,7 @@ def _arguments(path: Path) -> dict[str, bool]:
     ("robot.launch.py", {"network_interface"}, {"params_file", "namespace", "dds_domain", "joint_state_rate_hz",
                                                 "odom_rate_hz", "console", "console_host", "console_port",
                                                 "console_token_file"}),
-])  # fmt: skip
+])
 def test_launch_arguments(name: str, required: set[str], optional: set[str]) -> None:
     args = _arguments(LAUNCH / name)
     assert {k for k, has_default in args.items() if not has_default} == required
@@ -63,6 +63,6 @@ def test_launch_files_run_the_node_on_fast_dds_whatever_the_shell_exports(name: 
 def test_the_console_is_on_for_the_sim_and_asked_for_on_a_real_robot(name: str, default: str) -> None:
     tree = ast.parse((LAUNCH / name).read_text())
     declared = {n.args[0].value: n for n in ast.walk(tree) if isinstance(n, ast.Call)
-                and getattr(n.func, "id", "") == "DeclareLaunchArgument"}  # fmt: skip
+                and getattr(n.func, "id", "") == "DeclareLaunchArgument"}
     assert next(k.value.value for k in declared["console"].keywords if k.arg == "default_value") == default
     assert next(k.value.value for k in declared["console_host"].keywords if k.arg == "default_value") == "127.0.0.1"

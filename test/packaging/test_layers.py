@@ -22,7 +22,7 @@ PACKAGE = ROOT / "g1_mode_manager"
 #: Top-level packages of ROS 2 (client library, its C layers, message packages, launch) and of DDS.
 ROS_AND_DDS = ("rclpy", "rcl", "rcl_interfaces", "rcutils", "rmw", "rpyutils", "rosidl", "ament_index_python",
                "launch", "launch_ros", "builtin_interfaces", "std_msgs", "std_srvs", "geometry_msgs", "nav_msgs",
-               "sensor_msgs", "diagnostic_msgs", "g1_mode_manager_msgs", "cyclonedds", "unitree_sdk2py")  # fmt: skip
+               "sensor_msgs", "diagnostic_msgs", "g1_mode_manager_msgs", "cyclonedds", "unitree_sdk2py")
 
 _IMPORT_ALL_BLOCKED = """
 import importlib, pkgutil, sys, traceback
@@ -66,7 +66,7 @@ def _imports(path: Path) -> Iterator[tuple[int, str, str]]:
 def _offending(folder: Path, bad: callable) -> list[str]:  # type: ignore[valid-type]
     return [f"{path.relative_to(ROOT)}:{line} imports {module}{'.' + name if name else ''}"
             for path in sorted(folder.rglob("*.py")) for line, module, name in _imports(path)
-            if bad(module, name)]  # fmt: skip
+            if bad(module, name)]
 
 
 def _top(module: str) -> str:
@@ -103,7 +103,7 @@ def test_the_display_imports_only_the_core() -> None:
     def bad(module: str, _name: str) -> bool:
         return _top(module) == "g1_mode_manager" and not module.startswith(("g1_mode_manager.display",
                                                                              "g1_mode_manager.core",
-                                                                             "g1_mode_manager.protocol"))  # fmt: skip
+                                                                             "g1_mode_manager.protocol"))
 
     found = _offending(PACKAGE / "display", bad)
     assert not found, "display/ (shared by the node and the console) imports only core/ and protocol/:\n" + (
@@ -121,7 +121,7 @@ def test_the_sim_shares_only_protocol_with_the_product() -> None:
 def test_cli_and_console_reach_the_node_over_ros_only() -> None:
     for client in ("cli", "console"):
         found = _offending(PACKAGE / client, lambda module, _name: module.startswith(("g1_mode_manager.node",
-                                                                                      "g1_mode_manager.relay")))  # fmt: skip
+                                                                                      "g1_mode_manager.relay")))
         assert not found, f"{client}/ imports nothing of node/ or relay/:\n" + "\n".join(found)
 
 

@@ -262,7 +262,7 @@ def test_ramp_steps_every_50_ms_a_steady_move_at_the_keep_alive_and_the_watchdog
     port = FakeRobotPort()
     relay = CmdVelRelay(port, Gate(Mode.HIGH_LEVEL), LinkHealth(port, Gate(Mode.HIGH_LEVEL), 0.5), events,
                         limits=LIMITS, timeout_s=0.5, move_duration_s=1.0, rate_hz=10.0, max_rate_hz=50.0,
-                        clock=clock)  # fmt: skip
+                        clock=clock)
     relay.submit(0.1, 0.0, 0.0)
     relay.step()  # first step of the ramp: 0.05 of 0.1 (1 m/s^2 over 50 ms)
     assert [m[0] for m in _moves(port)] == pytest.approx([0.05])

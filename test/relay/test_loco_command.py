@@ -29,7 +29,7 @@ class Gate:
 
 
 def run_loco_command(port: FakeRobotPort, gate: Gate, command: str, value: int, *,
-                     timeout_s: float = 0.3) -> LocoResult:  # fmt: skip
+                     timeout_s: float = 0.3) -> LocoResult:
     return LocoCommands(port, gate, outcome_timeout_s=timeout_s, motion_timeout_s=timeout_s).run(command, value)
 
 
@@ -123,7 +123,7 @@ def test_a_stand_height_already_at_a_verified_extreme_counts_without_moving() ->
 
 
 @pytest.mark.parametrize(("target", "reason"), [(Mode.EMERGENCY, "preempted by e-stop"),
-                                                (Mode.IDLE, "preempted: mode HIGH_LEVEL -> IDLE")])  # fmt: skip
+                                                (Mode.IDLE, "preempted: mode HIGH_LEVEL -> IDLE")])
 def test_a_mode_change_preempts_a_command_waiting_for_its_outcome(target: Mode, reason: str) -> None:
     port = FakeRobotPort()
     port.outcomes = False
@@ -147,7 +147,7 @@ def test_a_mode_change_preempts_a_command_waiting_for_its_outcome(target: Mode, 
 @pytest.mark.parametrize("command", sorted({c for c, _, _ in SURFACE}))
 def test_refused_outside_high_level_while_dynamic_or_once_an_estop_began(command: str) -> None:
     for gate, sport in ((Gate(Mode.IDLE), None), (Gate(Mode.LOW_LEVEL), None), (Gate(open_=False), None),
-                        (Gate(), SportState(fsm_id=500, fsm_mode=1, task_id=0, task_time=0.0, age_s=0.01))):  # fmt: skip
+                        (Gate(), SportState(fsm_id=500, fsm_mode=1, task_id=0, task_time=0.0, age_s=0.01))):
         port = FakeRobotPort()
         if sport is not None:
             port.sport = sport

@@ -15,7 +15,7 @@ from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.lowstate_demand import HOLD_S, LowStateDemand
 
 HIGH = MachineStatus(mode=Mode.HIGH_LEVEL, transition_in_progress=False, transition_target=None, service_known=True,
-                     service_active=True, damp_confirmed=False, last_refusal="", last_error="")  # fmt: skip
+                     service_active=True, damp_confirmed=False, last_refusal="", last_error="")
 
 
 @dataclass
@@ -32,7 +32,7 @@ def rig():
     port = FakeRobotPort()
     machine = type("Machine", (), {"status": lambda _self: state.status})()
     demand = LowStateDemand(port, machine, lambda: state.arms, lambda _mode: state.link, always=False,
-                            clock=state.clock)  # fmt: skip
+                            clock=state.clock)
     return state, port, demand
 
 
@@ -84,7 +84,7 @@ def test_a_transition_a_target_arms_and_a_lost_link_subscribe_at_once(rig) -> No
 def test_joint_states_keep_it_always(rig) -> None:
     state, port, _ = rig
     always = LowStateDemand(port, type("M", (), {"status": lambda _s: state.status})(), lambda: False,
-                            lambda _mode: True, always=True, clock=state.clock)  # fmt: skip
+                            lambda _mode: True, always=True, clock=state.clock)
     settle(state, always)
     assert port.lowstate_wanted
 

@@ -28,7 +28,7 @@ class Rig:
         self.relay = UserLowCmdRelay(self.port, self.gate, LinkHealth(self.port, self.gate, 0.5), events,
                                      silence_timeout_s=0.1, exit_damping_s=0.2, service_active=lambda: True,
                                      clock=clock, user_ctrl=self.link, silence=silence, hand_back=self._hand_back,
-                                     hold_kp=80.0, hold_kd=2.0)  # fmt: skip
+                                     hold_kp=80.0, hold_kd=2.0)
 
     def _hand_back(self) -> Outcome:
         self.hand_backs.append(1.0)

@@ -12,12 +12,12 @@ from g1_mode_manager.relay.walk_judge import WARNING, WalkJudge
 def odom(x: float = 0.0, y: float = 0.0, yaw: float = 0.0, age_s: float = 0.02) -> OdomSample:
     fields = OdomFields(stamp_s=0.0, position=(x, y, 0.75), velocity=(0.0, 0.0, 0.0), yaw_speed=0.0,
                         quaternion=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)), gyroscope=(0.0, 0.0, 0.0),
-                        rpy=(0.0, 0.0, math.atan2(math.sin(yaw), math.cos(yaw))), body_height=0.75)  # fmt: skip
+                        rpy=(0.0, 0.0, math.atan2(math.sin(yaw), math.cos(yaw))), body_height=0.75)
     return OdomSample(fields, age_s, 1)
 
 
 def feed(judge: WalkJudge, seconds: float, command: tuple[float, float, float], moves: tuple[float, float, float],
-         start: float = 0.0, *, sway: float = 0.0, odometry: bool = True, age_s: float = 0.02) -> float:  # fmt: skip
+         start: float = 0.0, *, sway: float = 0.0, odometry: bool = True, age_s: float = 0.02) -> float:
     """Moves acknowledged at 10 Hz for ``seconds`` while the robot goes at ``moves`` (vx m/s, vy m/s, wz rad/s)
     from the origin, swaying ``sway`` m to and fro; returns the time of the last one."""
     t = start

@@ -24,9 +24,9 @@ def lowcmds(draw: st.DrawFn) -> LowCmd_:
         MotorCmd_(mode=draw(u8), q=draw(f32), dq=draw(f32), tau=draw(f32), kp=draw(f32), kd=draw(f32),
                   reserve=draw(u32))
         for _ in range(35)
-    ]  # fmt: skip
+    ]
     return LowCmd_(mode_pr=draw(u8), mode_machine=draw(u8), motor_cmd=motors,
-                   reserve=draw(st.lists(u32, min_size=4, max_size=4)), crc=draw(u32))  # fmt: skip
+                   reserve=draw(st.lists(u32, min_size=4, max_size=4)), crc=draw(u32))
 
 
 @st.composite

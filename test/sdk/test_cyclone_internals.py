@@ -110,5 +110,5 @@ def test_delete_entity_deletes_it_now(endpoints) -> None:
     assert wait_until(lambda: writer.get_publication_matched_status().current_count >= 1, 10.0)
     delete_entity(reader)
     assert wait_until(lambda: writer.get_publication_matched_status().current_count == 0, 5.0), changed(
-        "Entity.__del__() no longer deletes the DDS entity")  # fmt: skip
+        "Entity.__del__() no longer deletes the DDS entity")
     assert take_serialized(reader, 1) == []  # a deleted reader: DDS refuses, nothing taken

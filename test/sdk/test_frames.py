@@ -51,9 +51,9 @@ def test_arm_sdk_frame_bytes_crc_and_weight(cmds: list[MotorCommand], weight: fl
 
 @settings(max_examples=40, deadline=None)
 @given(st.integers(0, 255), st.integers(0, 0xFFFFFFFF), st.lists(f32, min_size=35, max_size=35),
-       st.lists(f32, min_size=35, max_size=35), st.integers(-0x8000, 0x7FFF))  # fmt: skip
+       st.lists(f32, min_size=35, max_size=35), st.integers(-0x8000, 0x7FFF))
 def test_lowstate_decoding_equals_full_deserialisation(mode_machine: int, tick: int, q: list[float],
-                                                      dq: list[float], temperature: int) -> None:  # fmt: skip
+                                                      dq: list[float], temperature: int) -> None:
     msg = unitree_hg_msg_dds__LowState_()
     msg.mode_machine, msg.tick, msg.imu_state.temperature = mode_machine, tick, temperature
     for motor, qi, dqi in zip(msg.motor_state, q, dq, strict=True):

@@ -14,7 +14,7 @@ from g1_mode_manager.sdk.odom_reader import decode_odom
 def _sample() -> OdomFields:
     return OdomFields(stamp_s=12.25, position=(1.5, -2.25, 0.75), velocity=(0.5, 0.125, 0.0), yaw_speed=0.375,
                       quaternion=(0.5, 0.5, 0.5, 0.5), gyroscope=(0.0, 0.25, -0.5), rpy=(0.125, -0.25, 1.5),
-                      body_height=0.75)  # fmt: skip
+                      body_height=0.75)
 
 
 def test_encoded_odom_deserialises_with_cyclonedds() -> None:

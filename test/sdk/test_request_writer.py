@@ -13,7 +13,7 @@ int64 = st.integers(-(2**63), 2**63 - 1)
 @settings(max_examples=200, deadline=None)
 @given(int64, int64, st.text(max_size=300), st.booleans())
 def test_encoded_request_equals_cyclonedds_serialisation(request_id: int, api_id: int, parameter: str,
-                                                        noreply: bool) -> None:  # fmt: skip
+                                                        noreply: bool) -> None:
     parameter = parameter.replace("\0", "")  # a CDR string ends at its first NUL; JSON never holds one
     expected = make_request(request_id, api_id, parameter, noreply).serialize()
     expected = expected.ljust((len(expected) + 3) & ~3, b"\0")  # as cyclonedds' DataWriter.write pads it

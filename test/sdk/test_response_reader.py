@@ -20,9 +20,9 @@ def serialised(request_id: int, api_id: int, code: int, data: str, binary: list[
 
 @settings(max_examples=200, deadline=None)
 @given(int64, int64, int32, st.text(max_size=300).map(lambda t: t.replace("\0", "")),
-       st.lists(st.integers(0, 255), max_size=20))  # fmt: skip
+       st.lists(st.integers(0, 255), max_size=20))
 def test_decoding_equals_cyclonedds_deserialisation(request_id: int, api_id: int, code: int, data: str,
-                                                    binary: list[int]) -> None:  # fmt: skip
+                                                    binary: list[int]) -> None:
     raw = serialised(request_id, api_id, code, data, binary)
     expected = Response_.deserialize(raw)
     assert expected.data == data  # the reference itself round-trips
@@ -30,7 +30,7 @@ def test_decoding_equals_cyclonedds_deserialisation(request_id: int, api_id: int
 
 
 @pytest.mark.parametrize("raw", [b"", b"\x00\x01\x00\x00" + b"\x00" * 20, b"\x00\x03" + b"\x00" * 40,
-                                 serialised(1, 7001, 0, "abc")[:-10]])  # fmt: skip
+                                 serialised(1, 7001, 0, "abc")[:-10]])
 def test_malformed_replies_raise_value_error(raw: bytes) -> None:
     with pytest.raises(ValueError):
         decode(raw)

@@ -110,7 +110,7 @@ def test_every_loco_call_arrives_with_its_api_id_and_json(robot: UnitreeRobot, p
         (7105, {"velocity": [0.5, 0.0, 0.0], "duration": 1.0}),
         (7105, {"velocity": [0.5, 0.1, -0.2], "duration": 864000.0}),
         (7105, {"velocity": [0.0, 0.0, 0.0], "duration": 1.0}),
-    ]  # fmt: skip
+    ]
     assert requests(proc, service="sport") == expected
     assert all(not e["noreply"] for e in events(proc, "request"))
 
@@ -156,7 +156,7 @@ def test_released_sport_service_and_mode_switching(robot: UnitreeRobot, peer: Pe
     assert requests(proc, service="motion_switcher") == [
         (1001, {}), (1001, {}), (1003, {}), (1001, {}), (1002, {"name": "ai"}), (1001, {}),
         (1004, {"silent": True}), (1005, {}),
-    ]  # fmt: skip
+    ]
 
 
 def test_timeout_raises_3104_within_the_per_call_timeout(robot: UnitreeRobot, peer: Peer,

@@ -60,7 +60,7 @@ def private(read: Callable[..., Any], *args: Any, what: str) -> Any:
 
 def test_channel_factory_keeps_its_participant(sdk_channels: int) -> None:
     assert private(channel_factory_initialized, what="ChannelFactory has no __initialized") is True, changed(
-        "ChannelFactory.__initialized is not True after Init")  # fmt: skip
+        "ChannelFactory.__initialized is not True after Init")
     participant = private(channel_factory_participant, what="ChannelFactory has no __participant")
     assert isinstance(participant, DomainParticipant), changed("ChannelFactory.__participant is not a DomainParticipant")
 
@@ -93,10 +93,10 @@ def test_publisher_and_subscriber_channels_count_matched_readers(sdk_channels: i
     pub_channel = private(publisher_channel, publisher, what="ChannelPublisher has no __channel")
     sub_channel = private(subscriber_channel, subscriber, what="ChannelSubscriber has no __channel")
     assert isinstance(pub_channel, Channel) and isinstance(sub_channel, Channel), changed(
-        "a ChannelPublisher/ChannelSubscriber channel is not a Channel")  # fmt: skip
+        "a ChannelPublisher/ChannelSubscriber channel is not a Channel")
     assert isinstance(channel_datareader(sub_channel), DataReader)
     assert wait_until(lambda: channel_matched_readers(pub_channel) >= 1, 10.0), changed(
-        "Channel.__writer.__publication_matched_count no longer follows the matched readers")  # fmt: skip
+        "Channel.__writer.__publication_matched_count no longer follows the matched readers")
     publisher.Close()
     subscriber.Close()
 
@@ -107,7 +107,7 @@ def test_server_keeps_its_handlers_and_dispatcher() -> None:
     handler, lease = private(server_handler, server, 7001, what="Server has no __GetHandler")
     assert callable(handler) and lease is False, changed("Server.__GetHandler(api_id) is not (handler, checks lease)")
     assert private(server_handler, server, 7002, what="Server has no __GetHandler") == (None, False), changed(
-        "Server.__GetHandler(unknown id) is not (None, False)")  # fmt: skip
+        "Server.__GetHandler(unknown id) is not (None, False)")
     dispatch = private(server_request_handler, server, what="Server has no __ServerRequestHandler")
     assert callable(dispatch), changed("Server.__ServerRequestHandler is not callable")
     assert private(server_request_channel, server, what="ServerBase has no __serverStub, or ServerStub no __recvChannel") is None
@@ -131,7 +131,7 @@ def test_a_started_server_receives_on_a_channel_with_a_datareader(sdk_domain: in
     path = os.pathsep.join(filter(None, (str(ROOT), os.environ.get("PYTHONPATH"))))  # this checkout's package
     argv = [sys.executable, "-c", _STARTED_SERVER, str(sdk_domain), f"internals_server_{os.getpid()}"]
     done = subprocess.run(argv, cwd=ROOT, env={**os.environ, "PYTHONPATH": path}, capture_output=True, text=True,
-                          timeout=60)  # fmt: skip
+                          timeout=60)
     assert done.returncode == 0, changed(f"a started Server's request channel is unreachable:\n{done.stderr}")
     shapes = json.loads(done.stdout.strip().splitlines()[-1])
     assert shapes == {"channel": "Channel", "reader": "DataReader"}, changed(f"a started Server's request channel: {shapes}")

@@ -32,9 +32,9 @@ def test_request_id_is_the_header_identity_id(rid: int, api_id: int, parameter: 
 
 @settings(max_examples=50, deadline=None)
 @given(st.integers(0, 2**32 - 1), st.floats(-3.0, 3.0, width=32), st.integers(0, 255), st.integers(0, 255),
-       st.integers(0, 2**32 - 1))  # fmt: skip
+       st.integers(0, 2**32 - 1))
 def test_a_lowcmds_key_is_the_crc_of_its_content_whatever_its_crc_field(crc: int, q: float, mode: int, mode_pr: int,
-                                                                        reserve: int) -> None:  # fmt: skip
+                                                                        reserve: int) -> None:
     msg = unitree_hg_msg_dds__LowCmd_()
     msg.mode_pr, msg.mode_machine = mode_pr, 5
     msg.motor_cmd[0].mode, msg.motor_cmd[0].q, msg.motor_cmd[3].q, msg.motor_cmd[34].kd = mode, q, -q, 2.5

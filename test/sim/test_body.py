@@ -75,7 +75,7 @@ def _session_readers() -> Readers:
     for client in (loco, switcher):
         client.SetTimeout(RPC_TIMEOUT_S)
     return Readers(loco, switcher, Latest(topics.LOWSTATE, LowState_), Latest(topics.SPORTMODESTATE, SportModeState_),
-                   Collected(topics.LF_LOWSTATE, LowState_), Collected(topics.LF_BMSSTATE, BmsState_))  # fmt: skip
+                   Collected(topics.LF_LOWSTATE, LowState_), Collected(topics.LF_BMSSTATE, BmsState_))
 
 
 @dataclass
@@ -97,7 +97,7 @@ class Bridge:
             params.append(Parameter(name="faults", value=value))
         if gantry is not None:
             params.append(Parameter(name="gantry", value=ParameterValue(type=ParameterType.PARAMETER_BOOL,
-                                                                         bool_value=gantry)))  # fmt: skip
+                                                                         bool_value=gantry)))
         t = time.monotonic()
         r = self.ros.call(SetParameters, "/g1_sim_bridge/set_parameters", SetParameters.Request(parameters=params))
         assert all(x.successful for x in r.results), [x.reason for x in r.results]

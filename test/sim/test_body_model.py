@@ -70,7 +70,7 @@ def test_battery_drains_with_the_power_drawn() -> None:
 
 def _snapshot(keys: frozenset[str] = frozenset()) -> BodySnapshot:
     return BodySnapshot(casing_c=np.full(NUM_JOINTS, 30.2), winding_c=np.full(NUM_JOINTS, 40.6),
-                        battery=Battery(90.0).reading(), remote_keys=keys)  # fmt: skip
+                        battery=Battery(90.0).reading(), remote_keys=keys)
 
 
 def test_body_report_lays_injections_over_the_model() -> None:

@@ -124,7 +124,7 @@ def _wait_server(client: Any, version: str, timeout_s: float = 10.0) -> None:
 
 
 def _poll(status: SimStatus, until: Callable[[dict[str, Any]], bool], sim_timeout_s: float,
-          wall_timeout_s: float = 60.0) -> dict[str, Any]:  # fmt: skip
+          wall_timeout_s: float = 60.0) -> dict[str, Any]:
     """Poll the status until ``until(status)`` or ``sim_timeout_s`` of sim time passed (then fail)."""
     start = status.get()["sim_time"]
     deadline = time.monotonic() + wall_timeout_s
@@ -138,7 +138,7 @@ def _poll(status: SimStatus, until: Callable[[dict[str, Any]], bool], sim_timeou
 
 
 def _lowcmd(q: np.ndarray, *, kp: float, kd: float, mode_machine: int = 5, weight: float | None = None,
-            indices: Any = range(29), crc_ok: bool = True) -> LowCmd_:  # fmt: skip
+            indices: Any = range(29), crc_ok: bool = True) -> LowCmd_:
     msg = unitree_hg_msg_dds__LowCmd_()
     msg.mode_machine = mode_machine
     for i in indices:
@@ -175,10 +175,10 @@ def test_bridge_topics_carry_the_robots_type_identifiers(sdk_channels: int, sim_
     wanted = {(BuiltinTopicDcpsPublication, topics.LOWSTATE): LowState_,
               (BuiltinTopicDcpsPublication, topics.SPORTMODESTATE): SportModeState_,
               (BuiltinTopicDcpsSubscription, topics.LOWCMD): LowCmd_,
-              (BuiltinTopicDcpsSubscription, topics.ARM_SDK): LowCmd_}  # fmt: skip
+              (BuiltinTopicDcpsSubscription, topics.ARM_SDK): LowCmd_}
     found: dict[tuple[Any, str], bytes] = {}
     readers = {kind: BuiltinDataReader(participant, kind) for kind in (BuiltinTopicDcpsPublication,
-                                                                        BuiltinTopicDcpsSubscription)}  # fmt: skip
+                                                                        BuiltinTopicDcpsSubscription)}
     deadline = time.monotonic() + 10.0
     while len(found) < len(wanted) and time.monotonic() < deadline:
         for kind, reader in readers.items():
@@ -284,7 +284,7 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_
 
 
 def test_a_starved_sim_still_records_every_arm_sdk_frame_in_order(clients: Clients, sim_bridge_factory,  # noqa: F811
-                                                                tmp_path) -> None:  # fmt: skip
+                                                                tmp_path) -> None:
     """The robot receives every 50 Hz arm_sdk frame. A sim process frozen for 0.3 s (a loaded machine) must not
     drop the frames queued meanwhile, or its record shows weight steps nobody sent."""
     record = tmp_path / "record.jsonl"

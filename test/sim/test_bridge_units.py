@@ -123,7 +123,7 @@ class StandIn:
 
 def test_faults_parse_all_keys() -> None:
     c = parse_faults('{"delay_s": {"1002": 5.0}, "drop": [7101], "error": {"7101": 3104}, '
-                     '"pause_state": true, "damp_fails": 2}')  # fmt: skip
+                     '"pause_state": true, "damp_fails": 2}')
     assert c.delay_s == {1002: (5.0, 5.0)}
     assert c.drop == {7101}
     assert c.error == {7101: 3104}
@@ -137,7 +137,7 @@ def test_faults_parse_all_keys() -> None:
      '{"error": {"7101": 0}}', '{"error": {"7101": 1.5}}', '{"pause_state": 1}', '{"damp_fails": -1}',
      '{"damp_fails": true}', '{"drop": [true]}', '{"delay_s": {"1003": [2, 1]}}', '{"delay_s": {"1003": [1]}}',
      '{"seed": "x"}'],
-)  # fmt: skip
+)
 def test_faults_invalid_is_refused_and_previous_kept(text: str) -> None:
     faults = Faults(parse_faults('{"drop": [1001]}'))
     with pytest.raises(FaultConfigError):
@@ -148,7 +148,7 @@ def test_faults_invalid_is_refused_and_previous_kept(text: str) -> None:
 def test_faults_parse_the_body_injections() -> None:
     c = parse_faults(json.dumps({"motor_temperature": {"3": [90, 130.5], "28": [20, 21]}, "battery_soc": 15,
                                  "remote_keys": ["L2", "B"], "push": {"force": 150, "direction": [0, 2], "duration": 0.3},
-                                 "freeze_lowstate": True}))  # fmt: skip
+                                 "freeze_lowstate": True}))
     assert c.motor_temperature == {3: (90.0, 130.5), 28: (20.0, 21.0)}
     assert c.battery_soc == 15.0 and c.remote_keys == {"L2", "B"} and c.freeze_lowstate
     assert c.push is not None and c.push.force_xy == pytest.approx((0.0, 150.0)) and c.push.duration_s == 0.3
@@ -174,7 +174,7 @@ def test_faults_parse_the_body_injections() -> None:
      ('{"push": {"force": 100, "direction": [1, 0, 0], "duration": 1}}', "push.direction"),
      ('{"push": {"force": 100, "duration": 1}}', "push must be an object"),
      ('{"freeze_lowstate": 1}', "freeze_lowstate must be true or false")],
-)  # fmt: skip
+)
 def test_faults_body_injections_refused_with_a_reason(text: str, why: str) -> None:
     faults = Faults(parse_faults('{"battery_soc": 50}'))
     with pytest.raises(FaultConfigError, match=re.escape(why)):
@@ -207,7 +207,7 @@ def test_delay_ranges_draw_a_delay_per_request_replayably() -> None:
      ('{"ignore_fsm_ids": ["500"]}', "an fsm id must be an integer >= 0, got '500'"),
      ('{"ignore_fsm_ids": [-1]}', "got -1"), ('{"ignore_fsm_ids": [true]}', "got True"),
      ('{"ignore_fsm_ids": [500.0]}', "got 500.0")],
-)  # fmt: skip
+)
 def test_ignore_fsm_ids_refused_with_a_reason(text: str, why: str) -> None:
     faults = Faults(parse_faults('{"ignore_fsm_ids": [501]}'))
     with pytest.raises(FaultConfigError, match=re.escape(why)):
@@ -234,7 +234,7 @@ def test_odometry_errors_have_non_zero_defaults_and_parse_partly() -> None:
      ('{"odom_drift": {"xy_per_m": 2}}', "odom_drift.xy_per_m must be within -1..1"),
      ('{"odom_drift": {"yaw_per_rad": "0.1"}}', "odom_drift.yaw_per_rad: expected a number"),
      ('{"odom_noise_m": -0.001}', "odom_noise_m must be within 0..1 m"), ('{"odom_noise_m": true}', "odom_noise_m")],
-)  # fmt: skip
+)
 def test_odometry_errors_refused_with_a_reason(text: str, why: str) -> None:
     faults = Faults(parse_faults('{"odom_noise_m": 0.5}'))
     with pytest.raises(FaultConfigError, match=re.escape(why)):
@@ -291,7 +291,7 @@ def test_sport_setters_parse_parameters() -> None:
     [(api.LOCO_SET_FSM_ID, "{not json"), (api.LOCO_SET_FSM_ID, '{"data": "1"}'), (api.LOCO_SET_FSM_ID, "[1]"),
      (api.LOCO_SET_FSM_ID, '{"data": 1.5}'), (api.LOCO_SET_VELOCITY, '{"velocity": [1, 2]}'),
      (api.LOCO_SET_VELOCITY, '{"velocity": [1, 2, NaN]}'), (api.LOCO_SET_BALANCE_MODE, "{}")],
-)  # fmt: skip
+)
 def test_malformed_parameter_answers_3204_and_does_nothing(api_id: int, parameter: str) -> None:
     robot = StandIn()
     assert _server(robot).handle_for_test(api_id, parameter) == (api.ERR_SERVER_API_PARAMETER, "")
@@ -359,7 +359,7 @@ def test_arm_service_takes_both_sdks_parameters_and_has_no_custom_actions() -> N
 
 
 def _frame(mode_machine: int = 5, *, mode: int = 1, good_crc: bool = True, weight: float = 1.0,
-           crc: int | None = None) -> LowCmd_:  # fmt: skip
+           crc: int | None = None) -> LowCmd_:
     """A frame with a good CRC, a wrong one (``good_crc=False``) or the given crc field (0: none, as Unitree's C++
     arm_sdk example sends)."""
     msg = unitree_hg_msg_dds__LowCmd_()
@@ -388,7 +388,7 @@ def test_lowcmd_checks_crc_mode_machine_and_debug_mode() -> None:
     assert len(applied) == 2 and applied[0][1][1].all() and not applied[1][1][1].any()
     assert np.allclose(applied[0][1][0], 0.01 * np.arange(29), atol=1e-6)
     assert intake.counts()["lowcmd"] == {"received": 6, "accepted": 2, "bad_crc": 2, "bad_mode_machine": 1,
-                                         "motors_disabled": 1, "not_debug_mode": 1}  # fmt: skip
+                                         "motors_disabled": 1, "not_debug_mode": 1}
     assert [a[5] for a in seen] == ["wrong", "ok", "ok", "ok", "none", "ok"]
     assert seen[0][4] == CRC().Crc(_frame()) and seen[4][4] == seen[0][4]  # the key: the content's CRC, not the field
 
@@ -408,7 +408,7 @@ def test_arm_sdk_takes_any_crc_and_checks_standing_not_mode_machine() -> None:
     assert weight == 1.0 and q.shape == (17,) and q[0] == pytest.approx(0.12)
     counts = intake.counts()["arm_sdk"]
     assert counts == {"received": 4, "accepted": 3, "crc0": 2, "crc_wrong": 1, "mode_machine_not_5": 1,
-                      "not_standing": 1}  # fmt: skip
+                      "not_standing": 1}
     assert [(a[1], a[5]) for a in seen] == [(None, "none"), (None, "wrong"), (None, "ok"), ("not_standing", "none")]
 
 

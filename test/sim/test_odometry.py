@@ -16,7 +16,7 @@ def _quat_yaw(yaw: float) -> tuple[float, float, float, float]:
 
 
 def _walk(odo: Odometer, *, rate_hz: float, seconds: float, speed: float = 0.5, turn: float = 0.0,
-          t0: float = 0.0, start: tuple[float, float, float] = (0.0, 0.0, 0.0)):  # fmt: skip
+          t0: float = 0.0, start: tuple[float, float, float] = (0.0, 0.0, 0.0)):
     """Drive a pelvis (0.75 m high) forward at ``speed`` m/s while turning at ``turn`` rad/s (the path stepped at
     500 Hz), asking the odometer at ``rate_hz``; the last estimate and the true (x, y, yaw)."""
     x, y, yaw = start
@@ -84,9 +84,9 @@ def test_noise_is_white_of_its_size_and_replays_with_the_seed() -> None:
     errors = OdomErrors(xy_per_m=0.0, xy_mps=0.0, yaw_per_rad=0.0, noise_m=0.002)
     odo, again = Odometer(errors, seed=9), Odometer(errors, seed=9)
     xs = [odo.update(k * 0.002, (1.0, 2.0, 0.75), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)).position[0]
-          for k in range(2000)]  # fmt: skip
+          for k in range(2000)]
     replay = [again.update(k * 0.002, (1.0, 2.0, 0.75), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)).position[0]
-              for k in range(2000)]  # fmt: skip
+              for k in range(2000)]
     mean = sum(xs) / len(xs)
     std = math.sqrt(sum((v - mean) ** 2 for v in xs) / len(xs))
     assert mean == pytest.approx(1.0, abs=3e-4) and std == pytest.approx(0.002, rel=0.1)

@@ -126,7 +126,7 @@ class Bridge:
         value = ParameterValue(type=ParameterType.PARAMETER_STRING, string_value=json.dumps(faults))
         t = time.monotonic()
         r = self.ros.call(SetParameters, "/g1_sim_bridge/set_parameters",
-                          SetParameters.Request(parameters=[Parameter(name="faults", value=value)]))  # fmt: skip
+                          SetParameters.Request(parameters=[Parameter(name="faults", value=value)]))
         assert all(x.successful for x in r.results), [x.reason for x in r.results]
         return t
 
@@ -140,7 +140,7 @@ class Bridge:
 
         def seen() -> bool:
             found[:] = [c for c in (json.loads(line) for line in list(self.counter.lines) if line.startswith("{"))
-                        if c["t"] > after][:1]  # fmt: skip
+                        if c["t"] > after][:1]
             return bool(found)
 
         assert wait_until(seen, 10.0), f"no counts after {after}:\n{self.counter.output()[-2000:]}"
@@ -235,7 +235,7 @@ def test_the_estimate_drifts_by_its_configured_scale_and_is_the_truth_without_er
     loco = sim.io.loco
     assert sim.call(lambda: loco.SetFsmId(500), api.LOCO_SET_FSM_ID) == 0
     for faults, scale in (({"odom_drift": {"xy_per_m": 0.05, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}, 1.05),
-                          ({"odom_drift": {"xy_per_m": 0, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}, 1.0)):  # fmt: skip
+                          ({"odom_drift": {"xy_per_m": 0, "xy_mps": 0, "yaw_per_rad": 0}, "odom_noise_m": 0}, 1.0)):
         sim.set_faults(faults)  # a fresh estimate, from the truth
         t0 = time.monotonic()  # every odom event written from now on has the new errors
         loco.Move(0.5, 0.0, 0.2, True)
@@ -290,7 +290,7 @@ def test_a_stock_arm_sdk_client_without_crc_moves_the_arm(sim: Bridge) -> None:
     """Unitree's C++ arm_sdk example never computes a CRC; the robot takes its frames, so the sim does."""
     t0 = time.monotonic()
     client = ManagedProcess([sys.executable, "-u", str(STOCK_CLIENT), str(sim.domain), "--type-fix", "arm7"],
-                            name="stock_arm7")  # fmt: skip
+                            name="stock_arm7")
     try:
         client.proc.wait(60.0)
     finally:

@@ -55,7 +55,7 @@ def _position(status: dict) -> np.ndarray:
 
 
 def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_channels: int, sim_bridge_factory,  # noqa: F811
-                                                                         tmp_path) -> None:  # fmt: skip
+                                                                         tmp_path) -> None:
     path = tmp_path / "robot.jsonl"
     sim_bridge_factory(speed=1.0, extra_args=("--record", str(path)))
     record = SimRecord(path)
@@ -81,7 +81,7 @@ def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_chan
     _check_walk(record, lines, walked, stood=True)
     t_arm0, t_arm1 = _step(lines, "walk")["t"], _step(lines, "arm")["t"]
     frames = [e for e in record.events(since=t_arm0) if e["k"] == "frame" and e["topic"] == "arm_sdk"
-              and e["t"] <= t_arm1 + 0.1]  # fmt: skip
+              and e["t"] <= t_arm1 + 0.1]
     accepted = [e for e in frames if e["ok"]]
     assert len(accepted) >= 90 and max(e["w"] for e in accepted) >= 0.99, f"{len(accepted)} arm_sdk frames accepted"
     assert _step(lines, "release")["check"] == {"form": "0", "name": ""}

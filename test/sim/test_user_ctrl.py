@@ -55,7 +55,7 @@ def test_switch_in_is_accepted_where_each_firmware_option_says(fsm: int) -> None
     expected = {UserCtrlOption.NONE: api.ERR_SERVER_API_NOT_IMPL,
                 UserCtrlOption.FROM_DAMP: api.OK if damp else REFUSAL_CODE,
                 UserCtrlOption.FROM_WALKRUN: api.OK if walkrun else REFUSAL_CODE,
-                UserCtrlOption.EITHER: api.OK if damp or walkrun else REFUSAL_CODE}  # fmt: skip
+                UserCtrlOption.EITHER: api.OK if damp or walkrun else REFUSAL_CODE}
     for option, code in expected.items():
         assert switch_in_verdict(option, fsm, balanced=True, phase=Phase.INTERNAL) == code, option
 
@@ -81,7 +81,7 @@ def test_fault_keys_parse_and_refuse_with_a_reason() -> None:
     assert (none.user_ctrl, none.user_ctrl_delay_s) == (None, DEFAULT_DELAY_S)
     assert none.to_json()["user_ctrl"] is None
     refused = (('{"user_ctrl": "always"}', "from_walkrun"), ('{"user_ctrl": 1}', "user_ctrl"),
-               ('{"user_ctrl_delay_s": -1}', "user_ctrl_delay_s"), ('{"user_ctrl_delay_s": true}', "seconds"))  # fmt: skip
+               ('{"user_ctrl_delay_s": -1}', "user_ctrl_delay_s"), ('{"user_ctrl_delay_s": true}', "seconds"))
     for text, why in refused:
         with pytest.raises(FaultConfigError, match=why):
             parse_faults(text)
@@ -254,12 +254,12 @@ def test_user_frames_are_checked_as_lowcmd_frames() -> None:
     assert intake.on_user_lowcmd(_frame(q)) is None
     assert intake.on_lowcmd(_frame(q)) == commands.USER_CTRL_ACTIVE
     assert intake.counts()["user_lowcmd"] == {"received": 4, "accepted": 1, "bad_crc": 1, "bad_mode_machine": 1,
-                                              "not_user_ctrl": 1}  # fmt: skip
+                                              "not_user_ctrl": 1}
     assert intake.counts()["lowcmd"] == {"received": 1, "user_ctrl_active": 1}
 
 
 def _frame(q: np.ndarray, *, kp: float = HOLD_KP, kd: float = HOLD_KD, mode_machine: int = 5,
-           crc_ok: bool = True) -> LowCmd_:  # fmt: skip
+           crc_ok: bool = True) -> LowCmd_:
     msg = unitree_hg_msg_dds__LowCmd_()
     msg.mode_machine = mode_machine
     for i in range(NUM_JOINTS):
@@ -296,7 +296,7 @@ def _session_clients() -> Clients:
     sport = Client(api.LOCO_SERVICE, False)
     sport._SetApiVerson(api.LOCO_API_VERSION)
     for api_id in (api.LOCO_GET_FSM_ID, api.LOCO_SET_FSM_ID, api.LOCO_SET_VELOCITY, api.LOCO_SWITCH_TO_USER_CTRL,
-                   api.LOCO_SWITCH_TO_INTERNAL_CTRL):  # fmt: skip
+                   api.LOCO_SWITCH_TO_INTERNAL_CTRL):
         sport._RegistApi(api_id, 0)
     switcher = MotionSwitcherClient()
     switcher.Init()
@@ -398,7 +398,7 @@ def record(tmp_path: Any) -> Iterator[Any]:
 
 @pytest.mark.sim
 def test_bridge_standing_switch_held_by_frames_and_caught_by_walkrun(clients: Clients, sim_bridge_factory,  # noqa: F811
-                                                                      record: Any) -> None:  # fmt: skip
+                                                                      record: Any) -> None:
     from g1_sim.bridge.clock import MAX_LAG_S
 
     delay = 0.3

@@ -28,7 +28,7 @@ def test_viewer_without_a_display_warns_and_the_sim_runs(monkeypatch, sdk_channe
 
 @pytest.mark.sim
 def test_viewer_window_draws_the_robot_and_its_led_under_xvfb(monkeypatch, sdk_channels, sim_bridge_factory,  # noqa: F811
-                                                               tmp_path) -> None:  # fmt: skip
+                                                               tmp_path) -> None:
     """The real window on a virtual display: the robot in the middle of it, the LED's colour above its head."""
     from PIL import ImageGrab
 

@@ -27,7 +27,7 @@ def test_bad_parameters_answer_3204_and_change_nothing() -> None:
     state = VoiceState()
     h = voice_handlers(state)
     for api_id, parameter in ((api.VOICE_SET_LED, {"R": 256, "G": 0, "B": 0}), (api.VOICE_SET_LED, {"R": 1}),
-                              (api.VOICE_SET_VOLUME, {"volume": 101}), (api.VOICE_TTS, {"text": 5})):  # fmt: skip
+                              (api.VOICE_SET_VOLUME, {"volume": 101}), (api.VOICE_TTS, {"text": 5})):
         assert h[api_id](json.dumps(parameter))[0] == api.ERR_SERVER_API_PARAMETER
     assert state.status()["led"] == [0, 0, 0] and state.status()["tts"] == [] and state.volume == BOOT_VOLUME
 

@@ -96,7 +96,7 @@ def group_lifetimes(rows: Sequence[Row]) -> list[list[Row]]:
 
 
 def judge_growth(rows: Sequence[Row], thresholds: Mapping[str, float] = THRESHOLDS,
-                 warmup_s: float = WARMUP_S) -> list[Growth]:  # fmt: skip
+                 warmup_s: float = WARMUP_S) -> list[Growth]:
     """Every growth beyond its threshold, within each lifetime and across lifetimes; [] if none."""
     lifetimes = group_lifetimes(rows)
     grew: list[Growth] = []

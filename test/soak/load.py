@@ -40,7 +40,7 @@ class Load:
 
     def start(self, plan: Lifetime, t0: float, stop: threading.Event) -> list[threading.Thread]:
         threads = [threading.Thread(target=self._operator, args=(actions, t0, stop), daemon=True, name=name)
-                   for name, actions in (("commands", plan.commands), ("streams", plan.streams))]  # fmt: skip
+                   for name, actions in (("commands", plan.commands), ("streams", plan.streams))]
         for th in threads:
             th.start()
         return threads

@@ -16,7 +16,7 @@ def proc_figures(pid: int) -> dict[str, int]:
             if key in ("VmRSS", "RssAnon"):
                 fields[key] = int(value.split()[0])
     return {"rss_kb": fields["VmRSS"], "rss_anon_kb": fields["RssAnon"],
-            "threads": len(os.listdir(f"/proc/{pid}/task")), "fds": len(os.listdir(f"/proc/{pid}/fd"))}  # fmt: skip
+            "threads": len(os.listdir(f"/proc/{pid}/task")), "fds": len(os.listdir(f"/proc/{pid}/fd"))}
 
 
 def rss_kb(pid: int) -> int:

@@ -46,7 +46,7 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--lifetime-s", type=float, default=300.0, help="a node lifetime's mean length, s (default 300)")
     p.add_argument("--sample-s", type=float, default=30.0, help="sampling period, s (default 30)")
     p.add_argument("--warmup-s", type=float, default=growth.WARMUP_S, help="samples younger than this are "
-                   f"not judged within a lifetime, s (default {growth.WARMUP_S:g})")  # fmt: skip
+                   f"not judged within a lifetime, s (default {growth.WARMUP_S:g})")
     p.add_argument("--out", default="artifacts/soak", help="where samples.csv, soak.svg, report.md and modes.jsonl go")
     p.add_argument("--keep-record", action="store_true", help="keep the sim's record even if nothing failed")
     return p.parse_args(argv)
@@ -84,7 +84,7 @@ class Soak:
 
         init_channels(self.sdk_domain, "lo")  # this process's SDK clients: the sim's status, Cyclone's discovery
         self.bridge = start_sim_bridge(self.sdk_domain, speed=1.0,
-                                       extra_args=("--record", str(self.record_path), "--gantry"))  # fmt: skip
+                                       extra_args=("--record", str(self.record_path), "--gantry"))
         self.ros = RosClient("soak_client")
         self.sim = shared_sim_status()
         self.sim.wait_ready(15.0)
@@ -94,7 +94,7 @@ class Soak:
         node.create_subscription(Mode, self.stack.name("mode"), self._on_mode, MODE_QOS)
         self.estop_pubs = {"topic_reliable": node.create_publisher(Bool, "/estop", QoSProfile(depth=10)),
                            "topic_best_effort": node.create_publisher(
-                               Bool, "/estop", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))}  # fmt: skip
+                               Bool, "/estop", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))}
         self.load = Load(self.stack, self._last_mode)
         self.load.publishers()
 
@@ -116,7 +116,7 @@ class Soak:
         a = self.args
         print(f"soak: seed {a.seed}, {len(self.plan)} node lifetimes of "
               f"{', '.join(f'{p.length_s:.0f}' for p in self.plan)} s, sampled every {a.sample_s:g} s; out {self.out}",
-              flush=True)  # fmt: skip
+              flush=True)
         self.start()
         for p in self.plan:
             bad = self.lifetime(p)
@@ -136,7 +136,7 @@ class Soak:
         self.stack.node, self.stack.record = node, record
         sampler = Sampler(self.log, lifetime=p.index, pid=node.proc.pid, bridge_pid=self.bridge.proc.pid,
                           t_ready=t_ready, t_run0=self.t0, period_s=self.args.sample_s, until_age_s=p.length_s,
-                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name)  # fmt: skip
+                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name)
         sampler.start()  # before waiting for discovery: its first sample is the node at its ready line
         self.ros.wait_node_answers(NODE)
         bad: list[str] = []
@@ -156,7 +156,7 @@ class Soak:
         self.stack.set_faults(NO_FAULTS)  # a lost link the e-stop cut short comes back
         t_estop = self.claims.t_estop
         wait_until(lambda: _damped(self.sim.get()) and any(is_damp(e) for e in requests(record.events(t_estop))),
-                   SETTLE_S, 0.1)  # fmt: skip
+                   SETTLE_S, 0.1)
         time.sleep(0.3)
         end_state = self.sim.get()
         if not node.alive():
@@ -168,11 +168,11 @@ class Soak:
         self.node = None
         if code not in (0, None) or time.monotonic() - t_stop > 5.0:
             self.notes.append(f"lifetime {p.index}: the node exited {code} after {time.monotonic() - t_stop:.1f} s "
-                              f"on SIGINT: {node.output()[-1500:]}")  # fmt: skip
+                              f"on SIGINT: {node.output()[-1500:]}")
         self.ros.wait_service_gone(f"{NODE}/set_mode")
         print(f"soak: lifetime {p.index} done at {(time.monotonic() - self.t0) / 60:.1f} min: {p.length_s:.0f} s, "
               f"e-stop via {p.estop_via} ({self._estop_said()}), {len(bad)} violations, exit {code}; load "
-              f"{dict(sorted(self.load.outcomes.items()))}", flush=True)  # fmt: skip
+              f"{dict(sorted(self.load.outcomes.items()))}", flush=True)
         self.load.outcomes.clear()
         return bad
 
@@ -181,11 +181,11 @@ class Soak:
         c = self.claims
         with c.lock, (self.out / "modes.jsonl").open("a") as f:
             f.write(json.dumps({"lifetime": lifetime, "t_estop": c.t_estop, "estop_success": c.estop_success,
-                                "t_answer": c.t_answer}) + "\n")  # fmt: skip
+                                "t_answer": c.t_answer}) + "\n")
             for t, m in c.modes:
                 f.write(json.dumps({"lifetime": lifetime, "t": t, "mode": m.name, "transition": m.transition_in_progress,
                                     "damp_confirmed": m.damp_confirmed, "faults": list(m.faults),
-                                    "holds": list(m.holds), "last_refusal": m.last_refusal}) + "\n")  # fmt: skip
+                                    "holds": list(m.holds), "last_refusal": m.last_refusal}) + "\n")
 
     def _estop(self, p: Lifetime, topic_pub: Any) -> list[str]:
         from std_msgs.msg import Bool
@@ -234,13 +234,13 @@ class Soak:
                 f"sampled every {a.sample_s:g} s, warm-up {a.warmup_s:g} s", "",
                 "Each figure at age 0 → the first sample after the warm-up → the last sample before the e-stop.", "",
                 *report.figures_table(rows, a.warmup_s, counts), "", "Noise (growth.noise) and thresholds:",
-                *report.noise_lines(rows, a.warmup_s), ""]  # fmt: skip
+                *report.noise_lines(rows, a.warmup_s), ""]
         text += [f"violation, lifetime {k}: {b}" for k, v in self.violations.items() for b in v]
         text += [f"note: {n}" for n in self.notes] + ([f"the run failed: {failure}"] if failure else [])
         text.append(report.last_line(minutes, n_bad, grew))
         (self.out / "report.md").write_text("\n".join(text) + "\n")
         write_svg(rows, str(self.out / "soak.svg"), f"make soak: seed {a.seed}, {minutes:.0f} min, "
-                  f"a sample every {a.sample_s:g} s, node restarts dashed")  # fmt: skip
+                  f"a sample every {a.sample_s:g} s, node restarts dashed")
         if n_bad == 0 and not failure and not a.keep_record:  # the judge's inputs are kept where something failed
             self.record_path.unlink(missing_ok=True)
             (self.out / "modes.jsonl").unlink(missing_ok=True)

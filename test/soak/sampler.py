@@ -13,7 +13,7 @@ from soak import probes
 #: The CSV's columns: when, which node, its mode, then the figures (docs/soak.md says what each counts).
 COLUMNS = ("run_s", "lifetime", "age_s", "pid", "mode", "rss_kb", "rss_anon_kb", "threads", "fds", "ros_nodes",
            "ros_pubs", "ros_subs", "ros_services", "ros_clients", "sdk_participants", "sdk_node_writers",
-           "sdk_node_readers", "sim_matched_readers", "sim_rss_kb")  # fmt: skip
+           "sdk_node_readers", "sim_matched_readers", "sim_rss_kb")
 
 
 class SampleLog:
@@ -41,7 +41,7 @@ class Sampler:
 
     def __init__(self, log: SampleLog, *, lifetime: int, pid: int, bridge_pid: int, t_ready: float, t_run0: float,
                  period_s: float, until_age_s: float, ros_graph: Any, cyclone: probes.CycloneGraph, sim: Any,
-                 mode: Any) -> None:  # fmt: skip
+                 mode: Any) -> None:
         self._log, self._lifetime, self._pid, self._bridge_pid = log, lifetime, pid, bridge_pid
         self._t_ready, self._t_run0, self._period, self._until = t_ready, t_run0, period_s, until_age_s
         self._ros_graph, self._cyclone, self._sim, self._mode = ros_graph, cyclone, sim, mode
@@ -70,7 +70,7 @@ class Sampler:
     def sample(self, age: float) -> dict[str, Any]:
         t = time.monotonic()
         row: dict[str, Any] = {"run_s": round(t - self._t_run0, 2), "lifetime": self._lifetime, "age_s": age,
-                               "pid": self._pid, "mode": self._mode()}  # fmt: skip
+                               "pid": self._pid, "mode": self._mode()}
         row |= probes.proc_figures(self._pid)
         row |= probes.ros_endpoints(self._ros_graph, "/", "g1_mode_manager")
         row |= self._cyclone.figures(self._pid)

@@ -19,7 +19,7 @@ PANELS: list[tuple[str, list[Series]]] = [
     ("node SDK (Cyclone) entities", [("writers", lambda r: r["sdk_node_writers"], "#9467bd"),
                                      ("readers", lambda r: r["sdk_node_readers"], "#c5b0d5"),
                                      ("sim's matched readers", lambda r: r["sim_matched_readers"], "#8c564b")]),
-]  # fmt: skip
+]
 W, H = 380, 200  # one panel
 PAD_L, PAD_R, PAD_T, PAD_B = 46, 10, 24, 40
 
@@ -28,7 +28,7 @@ def write_svg(rows: Sequence[Row], path: str, title: str) -> None:
     """Two by two panels against the run's minutes, one polyline per node lifetime (a gap at each restart)."""
     parts = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{2 * W}" height="{2 * H + 24}" '
              f'font-family="sans-serif" font-size="10">', '<rect width="100%" height="100%" fill="white"/>',
-             f'<text x="{W}" y="15" text-anchor="middle" font-size="12">{escape(title)}</text>']  # fmt: skip
+             f'<text x="{W}" y="15" text-anchor="middle" font-size="12">{escape(title)}</text>']
     if rows:
         for k, (name, series) in enumerate(PANELS):
             parts += _panel(rows, name, series, (k % 2) * W, 24 + (k // 2) * H)
@@ -47,7 +47,7 @@ def _panel(rows: Sequence[Row], name: str, series: list[Series], x0: float, y0: 
         return f"{x0 + PAD_L + pw * (r['run_s'] / 60) / t_max:.1f},{y0 + PAD_T + ph * (1 - (f(r) - lo) / (hi - lo)):.1f}"
 
     out = [f'<text x="{x0 + PAD_L}" y="{y0 + PAD_T - 6}" font-size="11">{escape(name)}</text>',
-           f'<rect x="{x0 + PAD_L}" y="{y0 + PAD_T}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']  # fmt: skip
+           f'<rect x="{x0 + PAD_L}" y="{y0 + PAD_T}" width="{pw}" height="{ph}" fill="none" stroke="#999"/>']
     for value in (lo, (lo + hi) / 2, hi):
         y = y0 + PAD_T + ph * (1 - (value - lo) / (hi - lo))
         out.append(f'<text x="{x0 + PAD_L - 4}" y="{y + 3:.1f}" text-anchor="end">{value:.4g}</text>')

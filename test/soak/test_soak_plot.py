@@ -8,12 +8,12 @@ from pathlib import Path
 from soak.svg_plot import PANELS, write_svg
 
 FIELDS = ("rss_kb", "rss_anon_kb", "threads", "fds", "ros_pubs", "ros_subs", "ros_services", "ros_clients",
-          "sdk_node_writers", "sdk_node_readers", "sim_matched_readers")  # fmt: skip
+          "sdk_node_writers", "sdk_node_readers", "sim_matched_readers")
 
 
 def test_one_polyline_per_lifetime_and_series(tmp_path: Path) -> None:
     rows = [{"lifetime": k, "age_s": a, "run_s": 320.0 * k + a, **dict.fromkeys(FIELDS, 7 + k)}
-            for k in range(3) for a in (0.0, 30.0, 60.0)]  # fmt: skip
+            for k in range(3) for a in (0.0, 30.0, 60.0)]
     path = tmp_path / "soak.svg"
     write_svg(rows, str(path), "soak <seed 1>")
     root = ET.parse(path).getroot()

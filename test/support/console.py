@@ -121,14 +121,14 @@ class RawPage:
         self._run(go(), 60.0)
 
     def hold(self, vx: float = 0.0, vy: float = 0.0, wz: float = 0.0, *, visible: bool = True, focused: bool = True,
-             period_s: float = 0.1) -> None:  # fmt: skip
+             period_s: float = 0.1) -> None:
         self.release_beat()
         seq = iter(range(1, 2**31))
 
         async def beat() -> None:
             while True:
                 msg = {"type": "teleop", "visible": visible, "focused": focused, "vx": vx, "vy": vy, "wz": wz,
-                       "seq": next(seq)}  # fmt: skip
+                       "seq": next(seq)}
                 await self._ws.send_str(json.dumps(msg))
                 await asyncio.sleep(period_s)
 
@@ -231,7 +231,7 @@ class FakeManager:
     def _publish(self) -> None:
         mode = self._modes[self.mode]
         msg = self._msg_type(mode=int(mode), name=mode.name, high_level_service_known=True,
-                             high_level_service_active=True, link_ok=True)  # fmt: skip
+                             high_level_service_active=True, link_ok=True)
         self._pub.publish(msg)
 
     def close(self) -> None:
@@ -264,7 +264,7 @@ def chromium(width: int = 1280, height: int = 1000) -> Iterator[Any]:
     options.binary_location = CHROMIUM
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
-                "--disable-extensions", f"--user-data-dir={profile}", f"--window-size={width},{height}"):  # fmt: skip
+                "--disable-extensions", f"--user-data-dir={profile}", f"--window-size={width},{height}"):
         options.add_argument(arg)
     driver = webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=options)
     try:

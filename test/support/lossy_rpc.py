@@ -32,7 +32,7 @@ Result = TypeVar("Result", int, tuple[int, Any])
 
 
 def call_robot(call: Callable[[], Result], record: SimRecord, api_id: int, *, timeout_s: float,
-               attempts: int = 3) -> Result:  # fmt: skip
+               attempts: int = 3) -> Result:
     """``call()``'s result (a code, or the SDK's (code, data)). A 3104 whose request or reply was lost in
     transport (see above) is called again, up to ``attempts`` calls in all; ``timeout_s`` is the client's
     timeout. Raises AssertionError if the record shows the robot received the request and did not answer it
@@ -44,7 +44,7 @@ def call_robot(call: Callable[[], Result], record: SimRecord, api_id: int, *, ti
             return result
         lost = _lost_in_transport(record, api_id, t0, timeout_s)
         print(f"call {attempt} of api {api_id}: 3104, {lost}; calling again" if attempt < attempts else
-              f"call {attempt} of api {api_id}: 3104, {lost}; giving up")  # fmt: skip
+              f"call {attempt} of api {api_id}: 3104, {lost}; giving up")
     return result
 
 
@@ -58,7 +58,7 @@ def _lost_in_transport(record: SimRecord, api_id: int, t0: float, timeout_s: flo
             took = done[0]["t"] - received[0]["t"]
             assert took <= HANDLED_WITHIN_S and done[0]["t"] <= t0 + timeout_s, (
                 f"the robot received the request {received[0]['t'] - t0:.3f} s after the call and answered "
-                f"{took:.3f} s later: slow, not lost")  # fmt: skip
+                f"{took:.3f} s later: slow, not lost")
             return f"the robot answered it in {took * 1e3:.0f} ms (the reply was lost in transport)"
         if time.monotonic() >= deadline:
             assert not received, (

@@ -122,7 +122,7 @@ def main(domain: int) -> int:
     }
     servers = []
     for name, version, table, wrap in (("sport", "1.0.0.0", sport_table, sport),
-                                       ("motion_switcher", "1.0.0.1", switcher_table, lambda h: h)):  # fmt: skip
+                                       ("motion_switcher", "1.0.0.1", switcher_table, lambda h: h)):
         server = Server(name)
         server._SetApiVersion(version)
         for api, handler in table.items():

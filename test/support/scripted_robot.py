@@ -69,7 +69,7 @@ def events(proc: ManagedProcess, kind: str, **match: Any) -> list[dict[str, Any]
 
 
 def wait_event(proc: ManagedProcess, kind: str, timeout_s: float = 5.0, count: int = 1,
-               **match: Any) -> list[dict[str, Any]]:  # fmt: skip
+               **match: Any) -> list[dict[str, Any]]:
     """Wait until at least ``count`` matching events were logged; returns them all. TimeoutError if not."""
     deadline = time.monotonic() + timeout_s
     while True:
@@ -102,7 +102,7 @@ class _Robot:
         self.form = str(script.get("form", "0"))
         self.silent = False
         self.values = {7001: int(script.get("fsm_id", 1)), 7002: int(script.get("fsm_mode", 0)), 7003: 0,
-                       7004: 0.09, 7005: 0.75, 7006: [0.0, 0.0]}  # fmt: skip
+                       7004: 0.09, 7005: 0.75, 7006: [0.0, 0.0]}
         self.codes = {int(k): int(v) for k, v in script.get("codes", {}).items()}
         self.delays = {int(k): float(v) for k, v in script.get("delays", {}).items()}
         self.replies = {int(k): str(v) for k, v in script.get("replies", {}).items()}
@@ -175,7 +175,7 @@ def _serve(script: dict[str, Any]) -> None:
             def handle(request: Any) -> None:
                 identity = request.header.identity
                 log("request", service=service, api_id=int(identity.api_id), id=int(identity.id),
-                    parameter=request.parameter, noreply=bool(request.header.policy.noreply))  # fmt: skip
+                    parameter=request.parameter, noreply=bool(request.header.policy.noreply))
                 inner(request)
 
             self._SetServerRequestHandler(handle)
@@ -202,7 +202,7 @@ def _serve(script: dict[str, Any]) -> None:
                 m = msg.motor_cmd
                 log("frame", topic=topic, crc_ok=crc.Crc(msg) == msg.crc, mode_pr=msg.mode_pr,
                     mode_machine=msg.mode_machine, mode=[c.mode for c in m], q=[c.q for c in m],
-                    dq=[c.dq for c in m], tau=[c.tau for c in m], kp=[c.kp for c in m], kd=[c.kd for c in m])  # fmt: skip
+                    dq=[c.dq for c in m], tau=[c.tau for c in m], kp=[c.kp for c in m], kd=[c.kd for c in m])
             return on_frame
 
         for topic in (topics.LOWCMD, topics.ARM_SDK):

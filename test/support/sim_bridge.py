@@ -32,7 +32,7 @@ def sim_bridge_factory(sdk_domain: int) -> Iterator[Callable[..., ManagedProcess
     started: list[ManagedProcess] = []
 
     def factory(*, speed: float = 1.0, faults: dict[str, Any] | None = None,
-                extra_args: Sequence[str] = ()) -> ManagedProcess:  # fmt: skip
+                extra_args: Sequence[str] = ()) -> ManagedProcess:
         for proc in started:
             if proc.alive():
                 proc.stop()

@@ -19,7 +19,7 @@ def xvfb(size: str = "960x720x24", timeout_s: float = 10.0) -> Iterator[str]:
     read_fd, write_fd = os.pipe()
     proc = subprocess.Popen([binary, "-displayfd", str(write_fd), "-screen", "0", size, "-nolisten", "tcp"],
                             pass_fds=(write_fd,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)  # fmt: skip
+                            start_new_session=True)
     os.close(write_fd)
     try:
         number = _read_display_number(read_fd, timeout_s)

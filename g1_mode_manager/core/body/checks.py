@@ -70,7 +70,6 @@ def _per_mode(idle: Reaction, high: Reaction, low: Reaction) -> Mapping[Mode, Re
 _W, _H, _F = Reaction.WARN, Reaction.HOLD, Reaction.FAULT
 _VENDOR = "Unitree unitree_sdk2 g1/common/terminations.hpp"
 
-# fmt: off
 CHECKS: tuple[Check, ...] = (
     Check("tilt", "tilt_rad", "rad", True, 1.0, 0.01, _per_mode(_F, _F, _F), True,
           f"{_VENDOR} bad_orientation: body z more than 1.0 rad from vertical"),
@@ -93,6 +92,5 @@ CHECKS: tuple[Check, ...] = (
     Check("state_lost", "state_age_s", "s", True, 1.0, 0.0, _per_mode(_W, _W, _F), False,
           f"{_VENDOR} lost_connection: no LowState_ for 1000 ms"),
 )
-# fmt: on
 
 BY_NAME: Final = MappingProxyType({c.name: c for c in CHECKS})

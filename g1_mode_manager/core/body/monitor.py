@@ -52,7 +52,7 @@ class _Track:
 
 class BodyMonitor:
     def __init__(self, *, clear_hold_s: float, thresholds: Mapping[str, float] | None = None,
-                 checks: tuple[Check, ...] = CHECKS) -> None:  # fmt: skip
+                 checks: tuple[Check, ...] = CHECKS) -> None:
         unknown = set(thresholds or {}) - {c.name for c in checks}
         if unknown:
             raise ValueError(f"unknown body checks: {', '.join(sorted(unknown))}")
@@ -97,7 +97,7 @@ class BodyMonitor:
 
     @staticmethod
     def _state(track: _Track, applies: bool, value: float | None, over: bool, tripped: bool,
-               reaction: Reaction) -> str:  # fmt: skip
+               reaction: Reaction) -> str:
         if track.latched:
             return track.latched.name.lower()
         if not applies:

@@ -69,7 +69,7 @@ class Estop:
     """Enters EMERGENCY and damps the robot; every outcome ends in EMERGENCY."""
 
     def __init__(self, state: MachineState, gate: ForwardGate, port: ModePort, timing: EstopTiming, *,
-                 poll_interval_s: float, sleep: Callable[[float], None]) -> None:  # fmt: skip
+                 poll_interval_s: float, sleep: Callable[[float], None]) -> None:
         self._state = state
         self._gate = gate
         self._port = port
@@ -106,7 +106,7 @@ class Estop:
         return []
 
     def register(self, target: Mode, *, faults: tuple[str, ...] = (),
-                 allowed: Callable[[Mode], bool] | None = None) -> Registration | None:  # fmt: skip
+                 allowed: Callable[[Mode], bool] | None = None) -> Registration | None:
         """Enter ``target`` (EMERGENCY, or FAULT for a protective stop) under the forward gate, waiting at most
         ``forward_wait_s`` for it: a running transition is preempted, holds end, the e-stop generation grows,
         nothing is claimed damped until the robot shows it again. None if ``allowed`` refused the mode."""
@@ -221,7 +221,7 @@ class Estop:
         call outlasts it."""
         return RunPort(self._port, self._state.note_service, self._sleep,
                        call_timeout_s=self._timing.call_s, select_timeout_s=self._timing.select_s,
-                       until=until, clock=self._state.clock)  # fmt: skip
+                       until=until, clock=self._state.clock)
 
     def _sequence(self) -> EstopRun:
         """Service active, Damp, calls in flight landed, verified on the robot; retried until verified or
@@ -244,7 +244,7 @@ class Estop:
                 remaining = max(timing.call_s, deadline - state.clock())
                 if ensure_service_active(calls, timeout_s=min(timing.select_s, remaining),
                                          poll_interval_s=self._poll_interval_s, clock=state.clock, sleep=self._sleep,
-                                         on_selected=partial(self._damp_at_select, notes)):  # fmt: skip
+                                         on_selected=partial(self._damp_at_select, notes)):
                     notes.append("SelectMode('ai') sent, DampNoReply at its answer")
                 user_ctrl = self.user_ctrl
                 if user_ctrl is not None:

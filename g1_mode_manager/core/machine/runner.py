@@ -29,7 +29,7 @@ class TransitionRunner:
 
     def __init__(self, state: MachineState, gate: ForwardGate, port: ModePort, *, release_timeout_s: float,
                  select_timeout_s: float, poll_interval_s: float, belief_period_s: float,
-                 sleep: Callable[[float], None]) -> None:  # fmt: skip
+                 sleep: Callable[[float], None]) -> None:
         self._state = state
         self._gate = gate
         self._port = port
@@ -158,10 +158,10 @@ class TransitionRunner:
                 case Step.ENSURE_SERVICE_ACTIVE:
                     selected = ensure_service_active(calls, timeout_s=self._select_timeout_s,
                                                      poll_interval_s=self._poll_interval_s, clock=self._state.clock,
-                                                     sleep=calls.sleep)  # fmt: skip
+                                                     sleep=calls.sleep)
                 case Step.RELEASE_SERVICE:
                     release_service(calls, timeout_s=self._release_timeout_s, poll_interval_s=self._poll_interval_s,
-                                    clock=self._state.clock, sleep=calls.sleep)  # fmt: skip
+                                    clock=self._state.clock, sleep=calls.sleep)
                 case Step.USER_CTRL:
                     shown = self._user_ctrl().enter(calls)
                 case Step.HAND_BACK_LAST:

@@ -29,7 +29,7 @@ STATE_SETTLE_S = 0.25
 
 class Supervisor:
     def __init__(self, state: MachineState, gate: ForwardGate, estop: Estop, port: ModePort,
-                 timing: EstopTiming) -> None:  # fmt: skip
+                 timing: EstopTiming) -> None:
         self._state = state
         self._gate = gate
         self._estop = estop

@@ -34,7 +34,7 @@ from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, USER_CTRL_FSM_ID, Int
 
 class UserCtrlSteps:
     def __init__(self, port: UserCtrlPort, link: UserCtrlLink, config: UserCtrlConfig, *,
-                 clock: Callable[[], float]) -> None:  # fmt: skip
+                 clock: Callable[[], float]) -> None:
         self.port = port
         self.link = link
         self.config = config

@@ -47,4 +47,4 @@ def body_report(body: BodySnapshot, config: FaultConfig) -> BodyReport:
     remote = RemoteState(keys, l2=1.0 if "L2" in keys else 0.0)  # the trigger pressed fully with its key
     return BodyReport(temperature=temperature, hottest_winding_c=float(winding.max()),
                       hottest_casing_c=float(casing.max()), battery=battery, remote_keys=keys,
-                      remote=encode_remote(remote))  # fmt: skip
+                      remote=encode_remote(remote))

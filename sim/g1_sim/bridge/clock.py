@@ -20,7 +20,7 @@ class Pacer:
     """
 
     def __init__(self, speed: float = 1.0, *, clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep) -> None:  # fmt: skip
+                 sleep: Callable[[float], None] = time.sleep) -> None:
         if speed < 0:
             raise ValueError(f"speed must be >= 0, got {speed}")
         self._clock = clock

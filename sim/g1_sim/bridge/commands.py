@@ -101,7 +101,7 @@ class CommandIntake:
     """Checks, counts and applies LowCmd_ frames of both topics (called from DDS reader threads)."""
 
     def __init__(self, robot: CommandRobot, *, crc: Callable[[LowCmd_], int] = lowcmd_crc,
-                 on_frame: FrameHook | None = None) -> None:  # fmt: skip
+                 on_frame: FrameHook | None = None) -> None:
         self._robot = robot
         self._crc = crc
         self._on_frame = on_frame

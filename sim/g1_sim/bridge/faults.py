@@ -211,7 +211,7 @@ def parse_faults(text: str) -> FaultConfig:
                        ignore_fsm_ids=_fsm_ids(raw.get("ignore_fsm_ids", []), "ignore_fsm_ids"),
                        odom=_odom(raw.get("odom_drift", {}), raw.get("odom_noise_m")),
                        user_ctrl=_user_ctrl_option(raw.get("user_ctrl")),
-                       user_ctrl_delay_s=_user_ctrl_delay(raw.get("user_ctrl_delay_s")))  # fmt: skip
+                       user_ctrl_delay_s=_user_ctrl_delay(raw.get("user_ctrl_delay_s")))
 
 
 def _user_ctrl_option(raw: Any) -> str | None:
@@ -307,7 +307,7 @@ def _push(raw: Any) -> Push | None:
         return None
     if not isinstance(raw, dict) or set(raw) != {"force", "direction", "duration"}:
         raise FaultConfigError(f'push must be an object {{"force": N, "direction": [x, y] or rad, "duration": s}}, '
-                               f"got {raw!r}")  # fmt: skip
+                               f"got {raw!r}")
     force = _number(raw["force"], "push.force")
     if not 0.0 < force <= PUSH_MAX_N:
         raise FaultConfigError(f"push.force must be within 0..{PUSH_MAX_N:g} N (not 0), got {raw['force']!r}")

@@ -20,7 +20,7 @@ _BODY: Final = struct.Struct("<4f3f3f3fh2x")
 
 
 def encode_imu(quaternion: Sequence[float], gyroscope: Sequence[float], accelerometer: Sequence[float],
-               rpy: Sequence[float], temperature: int = 0) -> bytes:  # fmt: skip
+               rpy: Sequence[float], temperature: int = 0) -> bytes:
     """The serialised IMUState_ (encapsulation header included)."""
     return _HEADER + _BODY.pack(*quaternion, *gyroscope, *accelerometer, *rpy, temperature)
 

@@ -63,7 +63,7 @@ class LowStatePacker:
         self._dq = _view(self._buf, body + _MOTOR_Q0 + 4, "<f4", NUM_JOINTS, _MOTOR_STRIDE)
         self._tau = _view(self._buf, body + _MOTOR_Q0 + 12, "<f4", NUM_JOINTS, _MOTOR_STRIDE)
         self._temperature = np.ndarray((NUM_JOINTS, 2), dtype="<i2", buffer=self._buf,
-                                       offset=body + _MOTOR_TEMPERATURE0, strides=(_MOTOR_STRIDE, 2))  # fmt: skip
+                                       offset=body + _MOTOR_TEMPERATURE0, strides=(_MOTOR_STRIDE, 2))
         self._remote = _view(self._buf, body + _WIRELESS_REMOTE, "u1", REMOTE_SIZE, 1)
         self._mode0 = _view(self._buf, body + _MOTOR_MODE0, "u1", 1, 1)
         self._mode_rest = _view(self._buf, body + _MOTOR_MODE1, "u1", NUM_JOINTS - 1, _MOTOR_STRIDE)
@@ -82,7 +82,7 @@ class LowStatePacker:
     def pack(self, q: np.ndarray, dq: np.ndarray, tau_est: np.ndarray, quaternion_wxyz: np.ndarray,
              gyroscope: np.ndarray, accelerometer: np.ndarray, rpy: np.ndarray, tick: int,
              temperature: np.ndarray | None = None, remote: bytes | None = None,
-             motor_mode: np.ndarray | None = None, vol: float | None = None) -> LowState_:  # fmt: skip
+             motor_mode: np.ndarray | None = None, vol: float | None = None) -> LowState_:
         """Write one frame; returns a LowState_ to pass to the writer (its fields are NOT updated).
 
         ``temperature`` (29 x [casing, winding], int16 deg C), ``remote`` (40 bytes of wireless_remote),
@@ -143,14 +143,14 @@ def default_lowstate(mode_machine: int) -> LowState_:
     """A LowState_ at rest (upright attitude, every other field zero): the packer's template, and what
     bench.bridge_speed serialises the SDK's way to compare."""
     imu = IMUState_(quaternion=[1.0, 0.0, 0.0, 0.0], gyroscope=[0.0] * 3, accelerometer=[0.0] * 3,
-                    rpy=[0.0] * 3, temperature=0)  # fmt: skip
+                    rpy=[0.0] * 3, temperature=0)
     motors = [
         MotorState_(mode=0, q=0.0, dq=0.0, ddq=0.0, tau_est=0.0, temperature=[0, 0], vol=0.0, sensor=[0, 0],
                     motorstate=0, reserve=[0] * 4)
         for _ in range(NUM_MOTOR_SLOTS)
     ]
     return LowState_(version=[0, 0], mode_pr=0, mode_machine=mode_machine, tick=0, imu_state=imu,
-                     motor_state=motors, wireless_remote=[0] * 40, reserve=[0] * 4, crc=0)  # fmt: skip
+                     motor_state=motors, wireless_remote=[0] * 40, reserve=[0] * 4, crc=0)
 
 
 def self_check(packer: LowStatePacker) -> None:
@@ -180,7 +180,7 @@ def self_check(packer: LowStatePacker) -> None:
         and np.array_equal(got_mode, mode) and bool(np.all(got_vol == np.float32(53.25))) and spare_slots_zero
         and decoded.tick == 123456 and decoded.mode_machine == packer.mode_machine
         and decoded.crc == lowstate_crc(decoded)
-    )  # fmt: skip
+    )
     if not ok:
         raise RuntimeError("LowState_ fast packing disagrees with cyclonedds/CRC: layout changed?")
     packer.pack(q, dq, tau, quat, gyro, acc, rpy, 0, np.zeros((NUM_JOINTS, 2), dtype=np.int16), bytes(REMOTE_SIZE),

@@ -61,7 +61,7 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:
     given = {"speed": args.speed, "dds_domain": args.domain, "network_interface": args.interface,
-             "faults": args.faults}  # fmt: skip
+             "faults": args.faults}
     out: dict[str, object] = {k: v for k, v in given.items() if v is not None}
     if args.no_ros_publish:
         out["publish_ros"] = False
@@ -106,7 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         node = BridgeNode(overrides=_overrides(args))
         try:
             bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event, record=args.record,
-                            soc=args.soc, user_ctrl=args.user_ctrl)  # fmt: skip
+                            soc=args.soc, user_ctrl=args.user_ctrl)
         except FaultConfigError as e:
             node.get_logger().error(f"bad faults parameter: {e}")
             return EXIT_BAD_CONFIG
@@ -150,7 +150,7 @@ class Bridge:
 
     def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event,
                  record: str | None = None, soc: float = START_SOC,
-                 user_ctrl: str = DEFAULT_OPTION.value) -> None:  # fmt: skip
+                 user_ctrl: str = DEFAULT_OPTION.value) -> None:
         from g1_mode_manager.protocol import api_ids as api
         from g1_mode_manager.protocol.dds import init_channels
         from g1_sim.bridge.clock import Pacer, StampClock
@@ -199,7 +199,7 @@ class Bridge:
             # arm actions: counted, not faulted or recorded (its ids overlap the sport service's 7106/7107)
             SimServer(api.ARM_SERVICE, api.ARM_API_VERSION, arm_action_handlers(self.robot), counter=self.requests),
             SimServer(STATUS_SERVICE, STATUS_API_VERSION, status_handlers(self.status, self.reset)),
-        ]  # fmt: skip
+        ]
         # voice (head LED, TTS): counted, but neither faulted nor recorded: its api ids overlap the motion
         # switcher's (1001..1005), and the record and faults are about the robot's motion services
         self.voice = VoiceState()
@@ -217,7 +217,7 @@ class Bridge:
         self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
                             on_body=self._body if self.record.enabled else None,
-                            on_odom=self._odom if self.record.enabled else None)  # fmt: skip
+                            on_odom=self._odom if self.record.enabled else None)
         self._params = p
 
     def start(self) -> None:
@@ -290,18 +290,18 @@ class Bridge:
         self.record.event("body", st=round(sim_time, 3), tilt=round(tilt_rad(s.imu_quaternion), 4),
                           gyro=round(float(np.abs(s.imu_gyroscope).max()), 3), dq=round(float(np.abs(s.dq).max()), 3),
                           winding=round(report.hottest_winding_c, 2), casing=round(report.hottest_casing_c, 2),
-                          soc=round(report.battery.soc, 3), z=round(z, 4))  # fmt: skip
+                          soc=round(report.battery.soc, 3), z=round(z, 4))
         self._record_state()  # a change without a request (the remote's Damp) is recorded within 10 ms too
 
     def _odom(self, sim_time: float, o: Any) -> None:
         """The record's ``odom`` event (every rt/lf/odommodestate sample): the estimate as published (float32)
         and the truth."""
         est = np.array([o.position[0], o.position[1], o.rpy[2], o.velocity[0], o.velocity[1], o.yaw_speed],
-                       dtype=np.float32).tolist()  # fmt: skip
+                       dtype=np.float32).tolist()
         x, y, yaw, vx, vy, wz = (round(v, 6) for v in est)
         self.record.event("odom", st=round(sim_time, 3), x=x, y=y, yaw=yaw, vx=vx, vy=vy, wz=wz,
                           true_x=round(float(o.true_position[0]), 6), true_y=round(float(o.true_position[1]), 6),
-                          true_yaw=round(float(o.true_yaw), 6))  # fmt: skip
+                          true_yaw=round(float(o.true_yaw), 6))
 
     def _record_state(self) -> None:
         robot = self.robot
@@ -341,7 +341,7 @@ class Bridge:
         ``user_ctrl_option`` (the firmware option now) and ``user_ctrl_delay_s``."""
         uc = self.robot.user_ctrl_status()
         return {"user_ctrl": uc["user_ctrl"], "user_ctrl_switching": uc["switching"],
-                "user_ctrl_option": uc["option"], "user_ctrl_delay_s": uc["delay_s"]}  # fmt: skip
+                "user_ctrl_option": uc["option"], "user_ctrl_delay_s": uc["delay_s"]}
 
     def _body_status(self) -> dict[str, Any]:
         """Hottest winding and casing, soc (as the robot reports them, injections included), tilt, gantry."""
@@ -350,12 +350,12 @@ class Bridge:
         report = self.loop.body if hasattr(self, "loop") else None
         pose = self.robot.base_pose()
         out: dict[str, Any] = {"tilt": tilt_rad(pose.quaternion), "pelvis_z": float(pose.position[2]),
-                               "gantry": self.robot.gantry}  # fmt: skip
+                               "gantry": self.robot.gantry}
         if report is not None:
             b = report.battery
             out |= {"winding_c": report.hottest_winding_c, "casing_c": report.hottest_casing_c, "soc": b.soc,
                     "pack_v": b.pack_v, "current_a": b.current_a, "power_w": b.power_w,
-                    "remote_keys": sorted(report.remote_keys)}  # fmt: skip
+                    "remote_keys": sorted(report.remote_keys)}
         return out
 
 

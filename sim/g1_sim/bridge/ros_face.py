@@ -57,7 +57,7 @@ def _quat_rotate_inverse(q_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ])  # fmt: skip
+    ])
     return rot.T @ np.asarray(v)
 
 
@@ -70,12 +70,12 @@ class BridgeNode(Node):
 
     def __init__(self, *, overrides: dict[str, object] | None = None, context: Context | None = None) -> None:
         super().__init__(NODE_NAME, context=context,
-                         parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()])  # fmt: skip
+                         parameter_overrides=[Parameter(k, value=v) for k, v in (overrides or {}).items()])
         defaults: dict[str, object] = {"network_interface": "lo", "dds_domain": 0, "speed": 1.0, "faults": "",
-                                       "publish_ros": True, "gantry": False}  # fmt: skip
+                                       "publish_ros": True, "gantry": False}
         for name, default in defaults.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=_DESCRIPTIONS[name],
-                                                                      read_only=name in _READ_ONLY))  # fmt: skip
+                                                                      read_only=name in _READ_ONLY))
         self.publish_ros = bool(self.get_parameter("publish_ros").value)
         self.on_faults: Callable[[str], None] | None = None
         self.on_speed: Callable[[float], None] | None = None
@@ -133,7 +133,7 @@ class BridgeNode(Node):
 
     def publish_state(self, stamp_ns: int, q: np.ndarray, dq: np.ndarray, tau: np.ndarray,
                       position: np.ndarray, quat_wxyz: np.ndarray, lin_vel_world: np.ndarray,
-                      ang_vel_world: np.ndarray) -> None:  # fmt: skip
+                      ang_vel_world: np.ndarray) -> None:
         """Publish /clock, joint_states and ~/odom (the truth; twist in the pelvis frame, as REP 105 wants)."""
         stamp = _time(stamp_ns)
         self._clock_pub.publish(Clock(clock=stamp))

@@ -277,7 +277,7 @@ class SimServer(Server):
 
     def __init__(self, name: str, version: str, handlers: dict[int, Handler], *,
                  faults: Faults | None = None, counter: RequestCounter | None = None,
-                 on_received: Received | None = None, on_handled: Handled | None = None) -> None:  # fmt: skip
+                 on_received: Received | None = None, on_handled: Handled | None = None) -> None:
         super().__init__(name)
         self._faults = faults or Faults()
         self._counter = counter or RequestCounter()

@@ -77,7 +77,7 @@ class SimLoop:
 
     def __init__(self, robot: SteppableRobot, publishers: StatePublishers, faults: Faults, pacer: Pacer,
                  *, node: BridgeNode | None = None, stamps: StampClock | None = None,
-                 on_body: BodyHook | None = None, on_odom: OdomHook | None = None) -> None:  # fmt: skip
+                 on_body: BodyHook | None = None, on_odom: OdomHook | None = None) -> None:
         self._robot = robot
         self._pub = publishers
         self._faults = faults
@@ -164,4 +164,4 @@ class SimLoop:
         assert self._node is not None
         b = self._robot.base_pose()
         self._node.publish_state(self._stamps.stamp_ns(t), s.q, s.dq, s.tau_est, b.position, b.quaternion,
-                                 b.linear_velocity, b.angular_velocity)  # fmt: skip
+                                 b.linear_velocity, b.angular_velocity)

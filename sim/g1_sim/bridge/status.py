@@ -18,7 +18,7 @@ STATUS_RESET: Final = 9002
 
 
 def status_handlers(collect: Callable[[], dict[str, Any]],
-                    reset: Callable[[], None] | None = None) -> dict[int, Callable[[str], tuple[int, str]]]:  # fmt: skip
+                    reset: Callable[[], None] | None = None) -> dict[int, Callable[[str], tuple[int, str]]]:
     handlers = {STATUS_GET: lambda parameter: (0, json.dumps(collect()))}
     if reset is not None:
         def do_reset(_parameter: str) -> tuple[int, str]:

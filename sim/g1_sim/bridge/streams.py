@@ -140,7 +140,7 @@ class StatePublishers:
         Every motor's ``vol`` is the battery pack's voltage: the motors hang on the pack's bus."""
         msg = self._packer.pack(s.q, s.dq, s.tau_est, s.imu_quaternion, s.imu_gyroscope, s.imu_accelerometer,
                                 s.imu_rpy, s.tick, body.temperature, body.remote, s.motor_mode,
-                                body.battery.pack_v)  # fmt: skip
+                                body.battery.pack_v)
         ok = self._lowstate.Write(msg)
         self._bump("lowstate" if ok else "lowstate_write_errors")
         if also_lf:
@@ -158,7 +158,7 @@ class StatePublishers:
         rt/lf/odommodestate if ``also_lf``."""
         data = encode_odom(OdomFields(stamp_s=stamp_s, position=o.position, velocity=o.velocity, yaw_speed=o.yaw_speed,
                                       quaternion=o.quaternion, gyroscope=o.gyroscope, rpy=o.rpy,
-                                      body_height=o.body_height))  # fmt: skip
+                                      body_height=o.body_height))
         ok = self._odom.write(data)
         self._bump("odommodestate" if ok else "odommodestate_write_errors")
         if also_lf:
@@ -196,7 +196,7 @@ class StatePublishers:
         """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""
         writers = {"lowstate": self._lowstate, "lf_lowstate": self._lf_lowstate, "sportmodestate": self._sport,
                    "bmsstate": self._bms, "secondary_imu": self._imu.publisher,
-                   "odommodestate": self._odom.publisher, "lf_odommodestate": self._lf_odom.publisher}  # fmt: skip
+                   "odommodestate": self._odom.publisher, "lf_odommodestate": self._lf_odom.publisher}
         return {name: _matched_readers(w) for name, w in writers.items()}
 
 
@@ -215,7 +215,7 @@ class CommandSubscribers:
         self._subs: list[Any] = []
         self._arrivals: dict[str, Arrivals] = {}
         for topic, handler in ((topics.LOWCMD, intake.on_lowcmd), (topics.USER_LOWCMD, intake.on_user_lowcmd),
-                               (topics.ARM_SDK, intake.on_arm_sdk)):  # fmt: skip
+                               (topics.ARM_SDK, intake.on_arm_sdk)):
             sub = ChannelSubscriber(topic, LowCmd_)
             sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN[topic])
             self._subs.append(sub)

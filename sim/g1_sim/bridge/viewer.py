@@ -69,7 +69,7 @@ class Viewer:
                 with robot.lock:
                     # the robot fills the window; MuJoCo's panels come back with Tab / Shift+Tab
                     handle = mujoco.viewer.launch_passive(robot.model, robot.data, show_left_ui=False,
-                                                          show_right_ui=False)  # fmt: skip
+                                                          show_right_ui=False)
                 with handle as viewer:
                     head = robot.model.body(HEAD_BODY).id
                     self._frame(viewer, robot.model)
@@ -101,7 +101,7 @@ class Viewer:
         scene.ngeom = 0
         pos = [float(head_xyz[0]), float(head_xyz[1]), float(head_xyz[2]) + LED_HEIGHT_M]
         mujoco.mjv_initGeom(scene.geoms[0], mujoco.mjtGeom.mjGEOM_SPHERE, [LED_RADIUS_M, 0, 0], pos,
-                            [1, 0, 0, 0, 1, 0, 0, 0, 1], led_rgba(self._led()))  # fmt: skip
+                            [1, 0, 0, 0, 1, 0, 0, 0, 1], led_rgba(self._led()))
         scene.ngeom = 1
 
 

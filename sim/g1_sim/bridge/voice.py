@@ -73,7 +73,7 @@ class VoiceState:
         with self._lock:
             return {"led": list(self.led), "led_changes": [dict(c) for c in self._led_changes],
                     "led_requests": self.led_requests, "tts": list(self._tts), "volume": self.volume,
-                    "play": {"chunks": self._play_chunks, "stops": self._play_stops, "stream": self._stream}}  # fmt: skip
+                    "play": {"chunks": self._play_chunks, "stops": self._play_stops, "stream": self._stream}}
 
 
 def voice_handlers(state: VoiceState) -> dict[int, Callable[[str], Reply]]:

@@ -31,4 +31,4 @@ class Body:
 
     def snapshot(self, remote_keys: frozenset[str]) -> BodySnapshot:
         return BodySnapshot(casing_c=self.thermal.casing.copy(), winding_c=self.thermal.winding.copy(),
-                            battery=self.battery.reading(), remote_keys=remote_keys)  # fmt: skip
+                            battery=self.battery.reading(), remote_keys=remote_keys)

@@ -68,7 +68,7 @@ def _quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float,
     cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
     cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
     return (cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)  # fmt: skip
+            cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy)
 
 
 class Odometer:
@@ -89,7 +89,7 @@ class Odometer:
         self._yaw_error = 0.0
 
     def update(self, t: float, position: Vec3, q_wxyz: tuple[float, float, float, float], velocity: Vec3,
-               gyroscope: Vec3) -> OdomEstimate:  # fmt: skip
+               gyroscope: Vec3) -> OdomEstimate:
         """The estimate at sim time ``t`` of a pelvis at ``position`` with orientation ``q_wxyz`` moving at
         ``velocity`` (world frame) and turning at ``gyroscope`` (body frame)."""
         e = self.errors
@@ -120,4 +120,4 @@ class Odometer:
             velocity=(c * vx - s * vy + self._creep[0], s * vx + c * vy + self._creep[1], vz),
             yaw_speed=(1.0 + e.yaw_per_rad) * yaw_rate, quaternion=_quat_from_rpy(roll, pitch, yaw),
             rpy=(roll, pitch, yaw), gyroscope=(gx, gy, gz), body_height=z + nz, true_position=(x, y, z),
-            true_yaw=true_yaw)  # fmt: skip
+            true_yaw=true_yaw)

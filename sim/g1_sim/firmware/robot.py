@@ -574,7 +574,7 @@ class SimG1:
         with self._lock:
             uc = self._uc
             return {"user_ctrl": uc.active, "switching": uc.engaged and not uc.active, "option": uc.option.value,
-                    "delay_s": uc.delay_s}  # fmt: skip
+                    "delay_s": uc.delay_s}
 
     @property
     def user_ctrl_active(self) -> bool:
@@ -710,7 +710,7 @@ class SimG1:
             ga, aa = g1.torso_gyro_adr, g1.torso_accel_adr
             q = tuple(quat.tolist())
             return ImuSnapshot(q, tuple(d.sensordata[ga : ga + 3].tolist()), tuple(d.sensordata[aa : aa + 3].tolist()),
-                               rpy_of(*q))  # fmt: skip
+                               rpy_of(*q))
 
     def sport_state(self) -> tuple[int, int]:
         """(fsm_id, fsm_mode) for rt/sportmodestate; (0, 0) in debug mode."""

@@ -77,7 +77,7 @@ class PelvisForces:
             hook = np.array((0.0, 0.0, HARNESS_ABOVE_PELVIS_M))  # pelvis frame
             hook_velocity = data.qvel[0:3] + rot @ np.cross(data.qvel[3:6], hook)  # qvel[3:6]: pelvis frame
             band = (BAND_STIFFNESS_N_PER_M * (self._anchor - data.xpos[self._pelvis] - rot @ hook)
-                    - BAND_DAMPING_N_S_PER_M * hook_velocity)  # fmt: skip
+                    - BAND_DAMPING_N_S_PER_M * hook_velocity)
             force += band
             torque_body = np.cross(hook, rot.T @ band)
         data.qfrc_applied[0:3] = force
