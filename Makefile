@@ -52,7 +52,7 @@ test: setup lint
 
 # `make run VIEW=1` opens MuJoCo's viewer on the sim (where a display exists).
 run: setup
-	$(BIN)/g1_demo $(if $(VIEW),--viewer)
+	$(BIN)/g1_demo $(if $(VIEW),--viewer) $(TOUR)
 
 bench: setup
 	$(BIN)/python -m bench.run
