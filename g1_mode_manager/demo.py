@@ -117,12 +117,7 @@ def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
     r = client.loco("start")
     step("loco start (walk mode, fsm 500)", r.success, r.message)
     time.sleep(1.0)
-    start = odom()
-    t_end = time.monotonic() + 4.0
-    while time.monotonic() < t_end:
-        client.drive(0.5)
-        time.sleep(0.05)
-    moved = odom()
+    start, moved = _drive(client, odom, 0.5, 4.0)
     time.sleep(2.0)  # no cmd_vel: the node's watchdog sends StopMove
     stopped = odom()
     if start and moved and stopped:
@@ -145,6 +140,16 @@ def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
     return steps_ok
 
 
+def _drive(client: ManagerClient, odom, vx: float, seconds: float) -> tuple:
+    """cmd_vel ``vx`` at 20 Hz for ``seconds``: where the robot was before and after (the sim's odometry)."""
+    start = odom()
+    t_end = time.monotonic() + seconds
+    while time.monotonic() < t_end:
+        client.drive(vx)
+        time.sleep(0.05)
+    return start, odom()
+
+
 def _user_ctrl_and_back(client: ManagerClient, step, odom) -> None:
     """LOW_LEVEL by user control with no controller: the robot held, then handed back to its own controller when
     ~/lowcmd stays silent (IDLE, standing), then HIGH_LEVEL and walking again."""
@@ -157,12 +162,7 @@ def _user_ctrl_and_back(client: ManagerClient, step, odom) -> None:
     step("no ~/lowcmd: robot handed back to its walk-run controller, standing", name == "IDLE", f"{name}: {why}")
     r = client.set_mode("high_level")
     step("set_mode high_level (the robot never went limp)", r.success, r.message)
-    start = odom()
-    t_end = time.monotonic() + 3.0
-    while time.monotonic() < t_end:
-        client.drive(0.5)
-        time.sleep(0.05)
-    moved = odom()
+    start, moved = _drive(client, odom, 0.5, 3.0)
     if start and moved:
         step("walking again after user control", math.dist(start, moved) > 0.5, f"walked {math.dist(start, moved):.2f} m")
 

@@ -110,14 +110,6 @@ class StatePublishers:
             warnings=[*self._parts.body.monitor.warnings(), *self._walk_warning(), *self._path_note(status)],
         ))
 
-    def _path_note(self, status: MachineStatus) -> list[str]:
-        """~/mode says which path LOW_LEVEL takes while it is, or is about to be, in it (the Mode message has no
-        field of its own for it; warnings is the list every client already shows)."""
-        target = status.transition_target if status.transition_in_progress else status.mode
-        if Mode.LOW_LEVEL not in (status.mode, target):
-            return []
-        return [f"low_level_path: {self._parts.machine.low_level_path.value}"]
-
     def _walk_warning(self) -> list[str]:
         warning = self._parts.walk.report(time.monotonic()).warning
         return [warning] if warning else []

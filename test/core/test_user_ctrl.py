@@ -11,6 +11,7 @@ import pytest
 from fakes.fake_clock import FakeClock
 from fakes.fake_robot import RELEASED
 from fakes.fake_user_ctrl import UserCtrlRobot
+from fakes.machine_rig import damp_confirmed_within
 from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.machine import ModeMachine, Result, TransitionRecord
 from g1_mode_manager.core.modes import Mode
@@ -38,12 +39,7 @@ class Rig:
         assert self.machine.mode is mode
 
     def wait_damp_confirmed(self, timeout_s: float = 5.0) -> bool:
-        deadline = time.monotonic() + timeout_s
-        while not self.machine.status().damp_confirmed:
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.001)
-        return True
+        return damp_confirmed_within(self.machine, timeout_s)
 
 
 def test_path_is_user_ctrl_when_configured() -> None:

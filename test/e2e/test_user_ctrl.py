@@ -15,6 +15,7 @@ import pytest
 from g1_mode_manager_msgs.msg import JointCommand
 from sensor_msgs.msg import JointState
 
+from e2e.conftest import Stack
 from g1_mode_manager.core.user_ctrl import UNSUPPORTED, UserCtrlConfig
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, USER_CTRL_FSM_ID, InternalCtrl
@@ -131,6 +132,18 @@ def _no_user_frame_before_1000(ev) -> None:
     assert hand_over and all(e["kp_max"] == HOLD_KP for e in hand_over), "no hand-over frame before the switch"
 
 
+def _held_in_user_ctrl(shared_stack_factory) -> tuple[Stack, HoldController]:
+    """A node on the user_ctrl path, the robot walked, then in user control held by the test's controller for a
+    second of sim time."""
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
+    stack.modes()  # every ~/mode from here on
+    controller = HoldController(stack)
+    _enter_walking(stack)
+    _enter_user_ctrl(stack, controller)
+    _wait_sim(stack, 1.0)
+    return stack, controller
+
+
 def test_walking_to_user_control_and_back_to_walking(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
     controller = HoldController(stack)
@@ -193,11 +206,7 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
 
 
 def test_estop_in_user_control_damps_and_verifies(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
-    controller = HoldController(stack)
-    _enter_walking(stack)
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 1.0)
+    stack, controller = _held_in_user_ctrl(shared_stack_factory)
     t0 = time.monotonic()
     r = stack.estop()
     answered = time.monotonic()
@@ -270,11 +279,7 @@ def test_firmware_without_user_control_is_refused_with_nothing_changed(shared_st
 
 
 def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
-    controller = HoldController(stack)
-    _enter_walking(stack)
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 1.0)
+    stack, controller = _held_in_user_ctrl(shared_stack_factory)
     t0 = time.monotonic()
     code = stack.node.stop()
     print(f"node exit {code} after {(time.monotonic() - t0) * 1000:.0f} ms")
@@ -290,18 +295,17 @@ def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory
 
 
 def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
-    controller = HoldController(stack)
+    stack, controller = _held_in_user_ctrl(shared_stack_factory)
     modes = stack.modes()
-    _enter_walking(stack)
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 1.0)
     t0 = time.monotonic()
     stack.set_faults({"remote_keys": ["L2", "B"]})  # the firmware ignores the remote in user control; the node not
     assert wait_until(lambda: modes and modes[-1].name == "EMERGENCY" and modes[-1].damp_confirmed, 15.0), \
         [(m.name, m.damp_confirmed) for m in modes[-3:]]
     controller.stop()
     stack.set_faults({})
+    # the sim's frame handler may lag its reader on a loaded machine: wait for the record
+    assert wait_until(lambda: any(e["kp_max"] == 0.0 for _, e in _frames(stack.record.events(t0), "user_lowcmd")),
+                      RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after L2+B"
     ev = [e for e in stack.record.events() if e["t"] >= t0]
     damping = [e for _, e in _frames(ev, "user_lowcmd") if e["kp_max"] == 0.0]
     passive = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL)]

@@ -34,13 +34,17 @@ class Rig:
 
 
     def wait_damp_confirmed(self, timeout_s: float = 5.0) -> bool:
-        """The protective stop's sequence runs in a thread of its own: wait (real time) until it verified."""
-        deadline = time.monotonic() + timeout_s
-        while not self.machine.status().damp_confirmed:
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.001)
-        return True
+        return damp_confirmed_within(self.machine, timeout_s)
+
+
+def damp_confirmed_within(machine: ModeMachine, timeout_s: float = 5.0) -> bool:
+    """A stop's sequence runs in a thread of its own: wait (real time) until it verified the robot damped."""
+    deadline = time.monotonic() + timeout_s
+    while not machine.status().damp_confirmed:
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.001)
+    return True
 
 
 def make_rig(service: str = ACTIVE, *, real_time: bool = False, **machine_kwargs: object) -> Rig:

@@ -33,6 +33,7 @@ from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, ARM_SDK_WEIGHT_INDEX, JOINT_INDEX
 from support.mode_manager import wait_until
 from support.processes import ManagedProcess, python_module
+from support.sdk_calls import call, initialised
 from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
 from support.sim_record import SimRecord
 from support.timing import margin
@@ -87,14 +88,10 @@ class Clients:
 
 @functools.cache
 def _session_clients() -> Clients:
-    loco = LocoClient()
-    loco.Init()
-    switcher = MotionSwitcherClient()
-    switcher.Init()
-    arm = ChannelPublisher(topics.ARM_SDK, LowCmd_)
-    arm.Init()
-    low = ChannelPublisher(topics.LOWCMD, LowCmd_)
-    low.Init()
+    loco = initialised(LocoClient())
+    switcher = initialised(MotionSwitcherClient())
+    arm = initialised(ChannelPublisher(topics.ARM_SDK, LowCmd_))
+    low = initialised(ChannelPublisher(topics.LOWCMD, LowCmd_))
     return Clients(loco, switcher, shared_sim_status(), arm, low, LowStateReader())
 
 
@@ -104,11 +101,6 @@ def clients(sdk_channels: int) -> Clients:
     c.loco.SetTimeout(3.0)
     c.switcher.SetTimeout(3.0)
     return c
-
-
-def _call(client: Any, api_id: int, parameter: dict[str, Any] | None = None) -> tuple[int, Any]:
-    code, data = client._Call(api_id, json.dumps(parameter or {}))
-    return code, (json.loads(data) if code == 0 and data else None)
 
 
 def _wait_server(client: Any, version: str, timeout_s: float = 10.0) -> None:
@@ -200,16 +192,16 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_
 
     # Start (the SDK's: fsm 200) and a continuous Move(0.5, 0, 0) for 4 s of sim time.
     assert switcher.CheckMode() == (0, {"form": "0", "name": "ai"})
-    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 4})
+    assert call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 4})
     loco.Start()
-    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 200})
+    assert call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 200})
     s0 = status.get()
     loco.Move(0.5, 0.0, 0.0, True)
     s1 = status.wait_sim_time(s0["sim_time"] + 4.0)
     walked = float(np.hypot(*(np.array(s1["base"]["position"][:2]) - s0["base"]["position"][:2])))
     print(f"walked {walked:.2f} m in {s1['sim_time'] - s0['sim_time']:.2f} s of sim time")
     assert walked >= 1.2
-    assert _call(loco, api.LOCO_GET_FSM_MODE) == (0, {"data": 1})  # dynamic while walking
+    assert call(loco, api.LOCO_GET_FSM_MODE) == (0, {"data": 1})  # dynamic while walking
 
     # StopMove: stopped within 1.5 s of sim time, i.e. it moves < 5 cm in a 0.5 s window starting by then.
     loco.StopMove()
@@ -248,7 +240,7 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_
     assert switcher.ReleaseMode() == (0, None)
     assert switcher.CheckMode() == (0, {"form": "0", "name": ""})
     assert loco.SetFsmId(1) == api.ERR_SERVER_API_NOT_IMPL
-    assert _call(loco, api.LOCO_GET_FSM_ID)[0] == api.ERR_SERVER_API_NOT_IMPL
+    assert call(loco, api.LOCO_GET_FSM_ID)[0] == api.ERR_SERVER_API_NOT_IMPL
 
     # rt/lowcmd with mode_machine 5 and a good CRC moves the elbows; bad frames are ignored and counted.
     low = clients.low
@@ -327,11 +319,11 @@ def test_faults_delay_error_damp_fails(clients: Clients, sim_bridge_factory) -> 
     _wait_server(switcher, api.MOTION_SWITCHER_API_VERSION)
 
     assert loco.SetBalanceMode(1) == 3104  # error fault: answered 3104, not handled
-    assert _call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})
+    assert call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})
     assert loco.SetFsmId(1) == 3104  # damp_fails 1: the first Damp fails without damping
-    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 4})
+    assert call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 4})
     assert loco.SetFsmId(1) == 0
-    assert _call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 1})
+    assert call(loco, api.LOCO_GET_FSM_ID) == (0, {"data": 1})
 
     # delay: SelectMode is handled 2 s later; the client times out meanwhile, CheckMode still answers.
     assert switcher.ReleaseMode() == (0, None)
@@ -407,7 +399,7 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, si
         # drop at run time: GetBalanceMode is received (counted) but never answered
         assert set_faults('{"drop": [7003]}').successful
         before = status.get()["requests"].get("sport", {}).get(str(api.LOCO_GET_BALANCE_MODE), 0)
-        assert _call(loco, api.LOCO_GET_BALANCE_MODE)[0] == 3104
+        assert call(loco, api.LOCO_GET_BALANCE_MODE)[0] == 3104
         assert status.get()["requests"]["sport"][str(api.LOCO_GET_BALANCE_MODE)] == before + 1
 
         # invalid JSON: refused with a reason, previous faults kept
@@ -420,7 +412,7 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, si
         n0, t0 = status.get()["published"]["lowstate"], status.get()["sim_time"]
         assert lowstate.fresh(timeout_s=0.5) is None
         assert status.get()["published"]["lowstate"] == n0 and status.get()["sim_time"] > t0 + 0.3
-        assert _call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})  # drop was replaced
+        assert call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})  # drop was replaced
         assert set_faults("").successful
         assert lowstate.fresh() is not None
     finally:

@@ -34,6 +34,7 @@ from g1_sim.firmware.user_ctrl import (
     internal_target,
     switch_in_verdict,
 )
+from support.sdk_calls import call, initialised
 from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
 from support.sim_record import SimRecord, of_kind, requests, states
 
@@ -298,28 +299,23 @@ def _session_clients() -> Clients:
     for api_id in (api.LOCO_GET_FSM_ID, api.LOCO_SET_FSM_ID, api.LOCO_SET_VELOCITY, api.LOCO_SWITCH_TO_USER_CTRL,
                    api.LOCO_SWITCH_TO_INTERNAL_CTRL):
         sport._RegistApi(api_id, 0)
-    switcher = MotionSwitcherClient()
-    switcher.Init()
-    user = ChannelPublisher(topics.USER_LOWCMD, LowCmd_)
-    user.Init()
-    low = ChannelPublisher(topics.LOWCMD, LowCmd_)
-    low.Init()
-    lowstate = ChannelSubscriber(topics.LOWSTATE, LowState_)
-    lowstate.Init()
+    switcher = initialised(MotionSwitcherClient())
+    user = initialised(ChannelPublisher(topics.USER_LOWCMD, LowCmd_))
+    low = initialised(ChannelPublisher(topics.LOWCMD, LowCmd_))
+    lowstate = initialised(ChannelSubscriber(topics.LOWSTATE, LowState_))
     return Clients(sport, switcher, shared_sim_status(), user, low, lowstate)
 
 
 @pytest.fixture
 def clients(sdk_channels: int) -> Clients:
     c = _session_clients()
-    c.sport.SetTimeout(3.0)
-    c.switcher.SetTimeout(3.0)
+    for client in (c.sport, c.switcher):  # a test may have left a shorter one
+        client.SetTimeout(3.0)
     return c
 
 
 def _call(c: Clients, api_id: int, parameter: dict[str, Any] | None = None) -> tuple[int, Any]:
-    code, data = c.sport._Call(api_id, json.dumps(parameter if parameter is not None else {}))
-    return code, (json.loads(data) if code == 0 and data else None)
+    return call(c.sport, api_id, parameter)
 
 
 def _fsm(c: Clients) -> int:
