@@ -164,10 +164,23 @@ def test_silence_on_a_tilted_robot_is_passive_and_fault() -> None:
     rig = Rig()
     rig.to(HI)
     rig.to(LO)
-    rig.robot.roll_pitch = None  # unknown attitude counts as not upright
+    rig.robot.roll_pitch = (1.3, 0.0)  # past the template's roll limit
     rig.machine.hand_back_on_silence()
     assert rig.machine.mode is FA and rig.wait_damp_confirmed()
     assert rig.robot.internal_ctrl_calls == [InternalCtrl.PASSIVE]
+
+
+def test_silence_with_the_attitude_unknown_waits_for_it_then_counts_it_not_upright() -> None:
+    rig = Rig()
+    rig.to(HI)
+    rig.to(LO)
+    assert rig.clock is not None
+    slept = rig.clock.slept
+    rig.robot.roll_pitch = None  # no fresh rt/lowstate: looked for, then judged blind
+    rig.machine.hand_back_on_silence()
+    assert rig.machine.mode is FA and rig.wait_damp_confirmed()
+    assert rig.robot.internal_ctrl_calls == [InternalCtrl.PASSIVE]
+    assert rig.clock.slept - slept >= UserCtrlConfig().switch_timeout_s
 
 
 def test_estop_in_user_control_damps_by_frame_then_passive_and_verifies() -> None:

@@ -116,11 +116,20 @@ class UserCtrlSteps:
             calls.sleep(self.config.poll_interval_s)
         return pose
 
+    def _fresh_attitude(self, calls: RunPort) -> tuple[float, float] | None:
+        """The robot's roll and pitch, waiting at most switch_timeout_s for a fresh sample: a node starved of the
+        CPU may find its newest one a little old while the hold frames keep the robot up, and an attitude that is
+        only unknown is no reason to damp a standing robot. Still unknown after that: blind (not upright)."""
+        deadline = self._clock() + self.config.switch_timeout_s
+        while (attitude := self.port.attitude()) is None and self._clock() < deadline:
+            calls.sleep(self.config.poll_interval_s)
+        return attitude
+
     # --- out of LOW_LEVEL --------------------------------------------------------------------------
     def hand_back(self, calls: RunPort, target: InternalCtrl) -> str:
         """SwitchToInternalCtrl(target) and the robot seen out of user control. WALKRUN only when upright."""
         if target is InternalCtrl.WALKRUN:
-            attitude = self.port.attitude()
+            attitude = self._fresh_attitude(calls)
             if not upright(attitude):
                 what = "unknown (no fresh rt/lowstate)" if attitude is None else \
                     f"roll {attitude[0]:.2f} rad, pitch {attitude[1]:.2f} rad"
