@@ -22,7 +22,7 @@ from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, USER_CTRL_FSM_ID, Int
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
-from support.timing import CONTROLLER_STALL_S, RECORD_WAIT_S
+from support.timing import CONTROLLER_STALL_S, HAND_BACK_S, RECORD_WAIT_S, check_latency
 
 pytestmark = pytest.mark.e2e
 
@@ -189,15 +189,20 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
     status = stack.sim.get()
     assert not status["user_ctrl"] and status["sport"]["fsm_id"] in STANDING_FSM_IDS, status["sport"]
     ev = stack.record.events()
-    back = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= killed)
-    print(f"hand-back request {(back['t'] - killed) * 1000:.0f} ms after the controller's last frame")
+    # the silence is judged on the record: on a loaded machine the test's controller may stall past
+    # lowcmd_timeout_s before the kill, and then the node rightly hands the robot back at that stall
+    entered = next(e["t"] for e in ev if e["k"] == "state" and e["fsm"] == USER_CTRL_FSM_ID)
+    back = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= entered)
+    silent_since = max(e["t"] for _, e in _frames(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["t"] <= back["t"])
+    check_latency("controller silent -> hand-back request on the robot", silent_since, back["t"], HAND_BACK_S)
+    print(f"the controller was {'stopped' if silent_since >= killed - 0.05 else 'stalled'} at its last frame")
     assert json.loads(back["p"])["data"] == InternalCtrl.WALKRUN
-    lowest = _lowest(ev, killed)
-    print(f"lowest pelvis after the kill {lowest:.3f} m")
+    lowest = _lowest(ev, silent_since)
+    print(f"lowest pelvis after the silence {lowest:.3f} m")
     assert lowest > STANDING_Z_M
     # until the hand-back the robot got the node's hold frames, never nothing
-    after_kill = [e for i, e in _frames(ev, "user_lowcmd") if killed <= e["t"] <= back["t"]]
-    assert after_kill and all(e["kp_max"] in (HOLD_KP, USER_KP) for e in after_kill)
+    after_silence = [e for i, e in _frames(ev, "user_lowcmd") if silent_since <= e["t"] <= back["t"]]
+    assert after_silence and all(e["kp_max"] in (HOLD_KP, USER_KP) for e in after_silence)
     assert wait_until(lambda: modes and modes[-1].name == "IDLE", 5.0), [m.name for m in modes[-3:]]
     said = next(m.last_refusal or m.last_error for m in reversed(modes) if m.name == "IDLE")
     print(f"~/mode after the hand-back: IDLE ({said!r})")
