@@ -64,6 +64,7 @@ class Landing:
     row: str
     columns: tuple[str, ...]
     connected: bool  # the node had finished a first connect (shown a mode other than UNINITIALIZED)
+    path: str = "release"  # the node's low_level_path
 
     def cells(self) -> list[tuple[str, str]]:
         return [(self.row, c) for c in self.columns]
@@ -80,11 +81,12 @@ class Coverage:
         self.landings.append(landing)
         self.features.update(features)
 
-    def counts(self) -> Counter[tuple[str, str]]:
-        return Counter(cell for landing in self.landings for cell in landing.cells())
+    def counts(self, path: str | None = None) -> Counter[tuple[str, str]]:
+        """Landings by cell, of every path or of one."""
+        return Counter(cell for landing in self.landings if path in (None, landing.path) for cell in landing.cells())
 
-    def missing(self) -> list[tuple[str, str]]:
-        counts = self.counts()
+    def missing(self, path: str | None = None) -> list[tuple[str, str]]:
+        counts = self.counts(path)
         return [cell for cell in REQUIRED if counts[cell] == 0]
 
     def after_connect(self) -> float:
@@ -112,6 +114,10 @@ class Coverage:
         after = sum(landing.connected for landing in self.landings)
         lines.append(f"chaos coverage: {hit} of {len(REQUIRED)} cells hit; e-stops after the first connect: {after} of "
                      f"{n} ({100 * after / max(1, n):.0f} %)")
+        for path in sorted({landing.path for landing in self.landings}):
+            runs = sum(landing.path == path for landing in self.landings)
+            lines.append(f"chaos coverage: {path} path: {runs} scenarios, {len(REQUIRED) - len(self.missing(path))} of "
+                         f"{len(REQUIRED)} cells hit; missed {self.missing(path)}")
         if self.features:
             lines.append("chaos coverage: " + ", ".join(f"{k} {v}" for k, v in sorted(self.features.items())))
         return "\n".join(lines)

@@ -152,6 +152,8 @@ class Operators:
             ros.call(Trigger, stack.name("clear_fault"), Trigger.Request(), CALL_TIMEOUT_S, 5.0)
         elif kind in STREAMS:
             _stream(stack, kind, float(arg or 0.5), self._stop)
+        elif kind == "pause":  # the setup waits in the row it reached before its next step
+            self._stop.wait(float(arg))
         return None
 
 

@@ -9,6 +9,13 @@ starts once the row is reached; the e-stop goes out when both hold (or at the de
 whatever was observed then, never the aim). Some scenarios also SIGKILL the node during the noise and start
 a fresh one, and some send a second e-stop after the first.
 
+Every scenario runs one of LOW_LEVEL's two paths (``low_level_path``), by the parity of its seed, so that any run
+of twice as many consecutive seeds as there are cells aims at every cell on each path. On the user_ctrl path the
+sim plays a firmware drawn from its options (mostly one that accepts the switch, sometimes one that refuses it
+here or does not implement it), the switch takes a random time to show fsm 1000 (sometimes longer than the node
+waits), SwitchToUserCtrl and SwitchToInternalCtrl answer late, and the transitions aimed at include the ways out
+of LOW_LEVEL (to HIGH_LEVEL and to IDLE), with the user's stream stopping before them (silence).
+
 Everything random comes from the seed, so a failure is replayed with `make chaos SEED=<seed> N=1`.
 """
 
@@ -23,6 +30,14 @@ from g1_mode_manager.protocol import api_ids
 
 #: Per-api delays the sim may inject (the robot's slow calls), s; node call timeouts exceed the maximum.
 DELAYED_APIS = (api_ids.MS_CHECK_MODE, api_ids.MS_SELECT_MODE, api_ids.MS_RELEASE_MODE, api_ids.LOCO_SET_FSM_ID)
+#: ... and on the user_ctrl path the switches too.
+USER_CTRL_APIS = (api_ids.LOCO_SWITCH_TO_USER_CTRL, api_ids.LOCO_SWITCH_TO_INTERNAL_CTRL)
+#: LOW_LEVEL's two paths; a scenario's is PATHS[seed % 2].
+PATHS = ("release", "user_ctrl")
+#: The firmware the sim plays on the user_ctrl path, drawn with these weights: mostly one that takes the switch.
+FIRMWARES = ("either",) * 5 + ("from_walkrun", "from_damp", "none")
+#: How long the sim's switch takes to show fsm 1000, s: sometimes past the node's user_ctrl_switch_timeout_s (1 s).
+USER_CTRL_DELAY_S = (0.0, 1.4)
 MAX_DELAY_S = 3.0
 #: A transition aimed at is kept in progress this long at least by delaying its calls, s.
 TRANSITION_DELAY_S = (1.0, 2.5)
@@ -41,6 +56,9 @@ LENGTHS = {"short": (6, (0, 4), 2.0, 2), "medium": (3, (8, 16), 8.0, 2), "long":
 AIM_DEADLINE_S = 9.0
 #: Clients: the noise uses 0..2, the setup SETUP, the column action COLUMN.
 SETUP, COLUMN = 3, 4
+#: On the user_ctrl path, a user's controller streaming ~/lowcmd from the setup's start on (silence hands the robot
+#: back within lowcmd_timeout_s: LOW_LEVEL lasts only while someone streams).
+USER_STREAM = 5
 #: A body fault that puts every mode in FAULT: a winding at 140 °C (past the 135 °C critical limit).
 FAULT_HEAT = {"motor_temperature": {"4": [70, 140]}}
 
@@ -60,6 +78,8 @@ class Plan:
     kill_at: float | None = None  # SIGKILL the node then (during the noise) and start a fresh one
     second_estop_after: float | None = None  # a second e-stop this long after the first went out
     second_via: str = "service"
+    path: str = "release"  # low_level_path: "release" or "user_ctrl"
+    node_params: tuple[str, ...] = ()  # the scenario's node's parameters (its path, its reaction to silence)
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -133,6 +153,32 @@ def _setup(row: str, rng: random.Random, delays: dict[str, Any]) -> list[tuple[f
     return [(0.0, "mode", "high_level"), (0.0, "arm", 2.5), (0.0, "mode", "idle")]
 
 
+def _user_ctrl_setup(row: str, column: str, rng: random.Random,
+                     delays: dict[str, Any]) -> tuple[list[tuple[float, str, Any]], float | None, bool]:
+    """The setup on the user_ctrl path: (its steps, [] where the release path's serve; how long a user's stream
+    runs from the setup's start, or None; whether the node damps on silence instead of handing back).
+
+    LOW_LEVEL is held by a stream, or by ``user_ctrl_silence: damp`` where nothing may be in flight. The ways in
+    and out are kept long by the robot: SwitchToUserCtrl answered late on the way in; on the way out
+    SwitchToInternalCtrl answered late, requested after a pause in LOW_LEVEL while the stream may already have
+    stopped (its silence races the request)."""
+    into, out = api_ids.LOCO_SWITCH_TO_USER_CTRL, api_ids.LOCO_SWITCH_TO_INTERNAL_CTRL
+    if row == "LOW_LEVEL":
+        if column == "nothing":
+            return [(0.0, "mode", "low_level")], None, True
+        return [(0.0, "mode", "low_level")], AIM_DEADLINE_S + 5.0, rng.random() < 0.25
+    if row == "->LOW_LEVEL":
+        _delay(delays, rng, into)
+        start = rng.choice(["idle", "high_level", "high_level"])
+        return [(0.0, "mode", start), (0.0, "mode", "low_level")], None, rng.random() < 0.25
+    if row in ("->HIGH_LEVEL", "->IDLE") and rng.random() < 0.5:
+        _delay(delays, rng, out)
+        target = row.removeprefix("->").lower()
+        steps = [(0.0, "mode", "low_level"), (0.0, "pause", round(rng.uniform(0.2, 1.0), 3)), (0.0, "mode", target)]
+        return steps, round(rng.uniform(1.0, 6.0), 3), rng.random() < 0.25
+    return [], None, rng.random() < 0.25
+
+
 def _column_action(column: str, row: str, rng: random.Random) -> tuple[str, Any] | None:
     if column == "nothing":
         return None
@@ -147,19 +193,27 @@ def _column_action(column: str, row: str, rng: random.Random) -> tuple[str, Any]
     return (kind, 3.0)
 
 
-def _gantry(row: str, rng: random.Random) -> bool:
-    """Hung in the gantry, or free. LOW_LEVEL is limp: a free robot falls within a second there, and a body
-    check turns the aimed row into FAULT; so a row in or into LOW_LEVEL is aimed at hung."""
-    return row in ("LOW_LEVEL", "->LOW_LEVEL") or rng.random() < 0.5
+def _gantry(row: str, rng: random.Random, setup: list[tuple[float, str, Any]]) -> bool:
+    """Hung in the gantry, or free. LOW_LEVEL is limp on the release path, and on the user_ctrl path the
+    operators' stream holds one joint (the others damped): a free robot falls within a second there, and a body
+    check turns the aimed row into FAULT; so a row in or into LOW_LEVEL, or a setup through it, is aimed at hung."""
+    through_low = ("mode", "low_level") in [(kind, arg) for _, kind, arg in setup]
+    return row in ("LOW_LEVEL", "->LOW_LEVEL") or through_low or rng.random() < 0.5
 
 
-def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS)) -> Plan:
+def path_of(seed: int, paths: tuple[str, ...] = PATHS) -> str:
+    """The LOW_LEVEL path of scenario ``seed``, among ``paths``."""
+    return paths[seed % len(paths)]
+
+
+def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS), paths: tuple[str, ...] = PATHS) -> Plan:
     rng = random.Random(seed)
     aim = REQUIRED[seed % len(REQUIRED)]
     row, column = aim
+    path = path_of(seed, paths)
     length = rng.choices(lengths, weights=[LENGTHS[n][0] for n in lengths])[0]
     delays: dict[str, Any] = {}
-    for api in DELAYED_APIS:
+    for api in DELAYED_APIS + (USER_CTRL_APIS if path == "user_ctrl" else ()):
         if rng.random() < 0.6:
             delays[str(api)] = [0.0, round(rng.uniform(0.1, MAX_DELAY_S), 3)]
     damp_fails = rng.choice([0, 0, 0, 1, 2])
@@ -168,9 +222,21 @@ def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS)) -> Plan:
     kill_at = None
     if noise and rng.random() < 0.15:
         kill_at = round(rng.uniform(0.2, setup_at), 3)
-    actions = [*noise, *((round(setup_at + dt, 3), SETUP, kind, arg) for dt, kind, arg in _setup(row, rng, delays))]
+    setup, stream_s, damp_on_silence = _user_ctrl_setup(row, column, rng, delays) if path == "user_ctrl" else ([], None,
+                                                                                                          False)
+    setup = setup or _setup(row, rng, delays)
+    if path == "user_ctrl":
+        # a setup through LOW_LEVEL needs a firmware that takes the switch; elsewhere the noise's requests for
+        # LOW_LEVEL meet every firmware
+        through_low = ("mode", "low_level") in [(kind, arg) for _, kind, arg in setup] and row != "->LOW_LEVEL"
+        faults |= {"user_ctrl": "either" if through_low else rng.choice(FIRMWARES),
+                   "user_ctrl_delay_s": round(rng.uniform(*USER_CTRL_DELAY_S) * (0.6 if through_low else 1.0), 3)}
+    actions = [*noise, *((round(setup_at + dt, 3), SETUP, kind, arg) for dt, kind, arg in setup)]
+    if stream_s is not None:
+        actions.append((setup_at, USER_STREAM, "lowcmd", stream_s))
+    node_params = (f"low_level_path:={path}", *(["user_ctrl_silence:=damp"] if damp_on_silence else []))
     second = round(rng.uniform(0.0, 1.5), 3) if rng.random() < 0.25 else None
     vias = ["service", "service", "topic_reliable", "topic_best_effort"]
     return Plan(seed, faults, actions, aim, _column_action(column, row, rng), setup_at, rng.choice(vias), damp_fails,
-                length=length, gantry=_gantry(row, rng), kill_at=kill_at, second_estop_after=second,
-                second_via=rng.choice(vias))
+                length=length, gantry=_gantry(row, rng, setup), kill_at=kill_at, second_estop_after=second,
+                second_via=rng.choice(vias), path=path, node_params=node_params)

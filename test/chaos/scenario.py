@@ -2,6 +2,10 @@
 
 The judge reads the sim's record (requests and frames with receive times, state changes) and the sim's final
 state. The node's replies and ``~/mode`` messages are used only to know what it *claimed* and when.
+
+Joint frames: on the release path they go to rt/lowcmd; on the user_ctrl path to rt/user_lowcmd, where the
+node's own hand-over and hold frames (kp ``HOLD_KP`` on every joint) keep a robot under user control commanded and
+are told from the user's (the operators' stream has another kp) by their stiffness.
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
+from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.protocol import api_ids
 from support.sim_record import Event, damped, fsm_of, is_damp, requests, states, velocity_of
 
@@ -24,6 +29,9 @@ MOVE_STEP = (1.5 * 0.05, 1.0 * 0.05, 3.0 * 0.05)  # max_ax, max_ay, max_awz time
 #: rclpy's import alone take longer).
 SUCCESSOR_EARLIEST_S = 0.3
 GRACE_S = 0.06  # a frame in flight, plus one rt/sportmodestate period, after a change of state
+#: The node's hand-over and hold frames' stiffness (user_ctrl_hold_kp's default).
+HOLD_KP = UserCtrlConfig().hold_kp
+JOINT_TOPICS = ("lowcmd", "user_lowcmd")
 
 
 @dataclass
@@ -41,9 +49,16 @@ class Claims:
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
-def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> list[str]:
-    """Violations of the safety invariants, from the robot's record; [] if none."""
-    bad: list[str] = []
+def _user_frame(e: Event) -> bool:
+    """A joint frame that forwards a user's command: stiff, and not the node's own hold."""
+    return (e["k"] == "frame" and e["topic"] in JOINT_TOPICS and e["kp_max"] > 0
+            and not (e["topic"] == "user_lowcmd" and e["kp_max"] == HOLD_KP))
+
+
+def judge(events: list[Event], claims: Claims, end_state: dict[str, Any], path: str = "release") -> list[str]:
+    """Violations of the safety invariants, from the robot's record; [] if none. ``path``: the node's
+    low_level_path."""
+    bad: list[str] = _judge_path(events, path)
     history = states(events)
 
     def state_at(t: float) -> Event | None:
@@ -76,8 +91,8 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
                 bad.append(f"SetFsmId {fsm_of(e)} after the e-stop")
             elif e["k"] == "frame" and e["topic"] == "arm_sdk" and e["w"] > 0:
                 bad.append(f"arm_sdk weight {e['w']} after the e-stop")
-            elif e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0:
-                bad.append(f"user lowcmd (kp {e['kp_max']}) after the e-stop")
+            elif e["k"] == "frame" and e["topic"] in JOINT_TOPICS and e["kp_max"] > 0:
+                bad.append(f"{e['topic']} frame (kp {e['kp_max']}) after the e-stop")
     for t_answer, success in claims.later_estops:
         at = state_at(t_answer)
         if success and (at is None or not damped(at)):
@@ -98,6 +113,28 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any]) -> lis
         bad += _judge_streams(events, history, life, killed_at=hi)
         bad += _judge_faults(events, history, life, killed_at=hi)
     bad += _judge_restarts(events, claims.restarts)
+    return bad
+
+
+def _judge_path(events: list[Event], path: str) -> list[str]:
+    """What each LOW_LEVEL path promises of the robot's side. user_ctrl: the robot is never released (limp), no
+    frame goes to rt/lowcmd, and a user's frame reaches rt/user_lowcmd only while the robot is under user control
+    (fsm 1000 shown: the node forwards none before it saw 1000, and none after it left LOW_LEVEL). release: nothing
+    on rt/user_lowcmd."""
+    bad: list[str] = []
+    if path == "release":
+        if user := [e for e in events if e["k"] == "frame" and e["topic"] == "user_lowcmd"]:
+            bad.append(f"a frame on rt/user_lowcmd on the release path: {user[0]}")
+        return bad
+    if released := [e for e in requests(events, api_ids.MS_RELEASE_MODE)]:
+        bad.append(f"ReleaseMode on the user_ctrl path at {released[0]['t']:.3f}")
+    if limp := [s for s in states(events) if not s["svc"]]:
+        bad.append(f"the robot released (limp) on the user_ctrl path: {limp[0]}")
+    if low := [e for e in events if e["k"] == "frame" and e["topic"] == "lowcmd"]:
+        bad.append(f"a frame on rt/lowcmd on the user_ctrl path: {low[0]}")
+    if outside := [e for e in events if _user_frame(e) and e["why"] == "not_user_ctrl"]:
+        bad.append(f"a user frame (kp {outside[0]['kp_max']}) reached the robot outside user control at "
+                   f"{outside[0]['t']:.3f}")
     return bad
 
 
@@ -123,8 +160,8 @@ def _forwarded_motion(e: Event, *, arms: bool = True) -> str:
         return f"Move {velocity_of(e)}"
     if e["k"] == "req" and fsm_of(e) not in (None, 1):
         return f"SetFsmId {fsm_of(e)}"
-    if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0:
-        return f"user lowcmd (kp {e['kp_max']})"
+    if e["k"] == "frame" and e["topic"] in JOINT_TOPICS and e["kp_max"] > 0:
+        return f"{e['topic']} frame (kp {e['kp_max']})"
     return ""
 
 
@@ -207,8 +244,7 @@ def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[
         # the node forwards the user's frames as soon as it is in LOW_LEVEL again, and the first may reach the robot
         # before its ~/mode says so reaches the test: a frame in flight before the claim, as after a change of state
         until = nxt[0] - GRACE_S if nxt else killed_at
-        late = [e for e in events if e["k"] == "frame" and e["topic"] == "lowcmd" and e["kp_max"] > 0
-                and t_left + GRACE_S < e["t"] < until]
+        late = [e for e in events if _user_frame(e) and t_left + GRACE_S < e["t"] < until]
         if late:
             bad.append(f"user lowcmd frame (kp {late[0]['kp_max']}) {late[0]['t'] - t_left:.3f} s after leaving LOW_LEVEL")
             break

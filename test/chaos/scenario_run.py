@@ -67,6 +67,7 @@ class ScenarioRun:
             if p.kill_at is not None:
                 threading.Thread(target=self._kill_and_restart, args=(t0, ops, claims), daemon=True).start()
             landing = self.landing = self._aim(t0, ops, in_flight, claims)
+            landing.path = p.path
             self.timing["aimed"] = time.monotonic() - t0
             self._estop(p.estop_via, claims, first=True)
             self.timing["answered"] = time.monotonic() - t0
@@ -96,7 +97,7 @@ class ScenarioRun:
                 latencies.append(first_damp - claims.t_estop)
             crashed = [] if alive else [f"the node died during the scenario (exit {stack.node.proc.returncode}): "
                                         f"{stack.node.output()[-1500:]}"]
-            return crashed + judge(events, claims, end_state)
+            return crashed + judge(events, claims, end_state, path=p.path)
         finally:
             stop.set()
             t_stop = time.monotonic()
@@ -205,7 +206,8 @@ class ScenarioRun:
                 *(["node SIGKILLed and restarted"] if p.kill_at is not None else []),
                 *(["FAULT entered"] if any(m.mode == Mode.FAULT for m in modes) else []),
                 *(["holds"] if any(m.holds for m in modes) else []),
-                *(["hung in the gantry"] if p.gantry else [])]
+                *(["hung in the gantry"] if p.gantry else []),
+                *(["user control damping on silence"] if "user_ctrl_silence:=damp" in p.node_params else [])]
 
 
 def _row(claims: Claims) -> str:

@@ -5,7 +5,9 @@ fresh node (EMERGENCY is latched), injects random per-request delays on CheckMod
 ReleaseMode / SetFsmId (0-3 s, so in-flight calls land in every order), failing Damps, random mode
 requests, loco commands, streams and body faults from several clients, sometimes a SIGKILL and restart of
 the node, then aims its e-stop at one coverage cell (plan.py, coverage.py) through the service or the topic
-(reliable or best effort), sometimes followed by a second one. See scenario.judge for the invariants.
+(reliable or best effort), sometimes followed by a second one. Scenarios alternate LOW_LEVEL's two paths
+(release and user control; G1_CHAOS_PATHS keeps one), each node started with its scenario's. See scenario.judge for
+the invariants.
 
 CI runs a fixed-seed batch of short scenarios (G1_CHAOS_N, default 30: every cell aimed at once) in
 G1_CHAOS_PARTS parts (default 2: seeds split in consecutive ranges, each part with its own bridge);
@@ -33,6 +35,7 @@ from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
 from chaos.coverage import Coverage
+from chaos.plan import PATHS as ALL_PATHS
 from chaos.plan import plan
 from chaos.scenario import Claims
 from chaos.scenario_run import ScenarioRun
@@ -49,6 +52,7 @@ SEED = int(os.environ.get("G1_CHAOS_SEED", "7000"))
 SUMMARY = os.environ.get("G1_CHAOS_SUMMARY", "")
 LENGTHS = tuple(os.environ.get("G1_CHAOS_LENGTHS", "short").split(","))
 PARTS = min(2, max(1, int(os.environ.get("G1_CHAOS_PARTS", "2"))))
+PATHS = tuple(os.environ.get("G1_CHAOS_PATHS", ",".join(ALL_PATHS)).split(","))
 #: Node call timeouts longer than the longest injected delay: every in-flight call's reply comes back.
 NODE_PARAMS = ("rpc_timeout_s:=4.0", "select_timeout_s:=10.0", "release_timeout_s:=8.0")
 
@@ -78,11 +82,11 @@ class Endpoints:
             claims.modes.append((time.monotonic(), msg))
 
 
-def _start_node(k: int):
+def _start_node(k: int, params: tuple[str, ...]):
     """The node of scenario k, in a namespace of its own with its own /estop and /cmd_vel, so it can start
     (UNINITIALIZED: it touches nothing on the robot) while scenario k-1 still runs."""
     ns = f"/chaos{k % NAMESPACES}"
-    return ns, _start_in(ns)
+    return ns, _start_in(ns, params)
 
 
 def parts(half: int) -> list:
@@ -113,18 +117,19 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
     coverage = Coverage()
     started = time.monotonic()
     with ThreadPoolExecutor(1) as starter:
-        upcoming = starter.submit(_start_node, 0)
+        upcoming = starter.submit(_start_node, 0, plan(first_seed, LENGTHS, PATHS).node_params)
         try:
             for i in range(count):
                 ns, node = upcoming.result(60.0)
                 if i + 1 < count:
-                    upcoming = starter.submit(_start_node, i + 1)
+                    upcoming = starter.submit(_start_node, i + 1, plan(first_seed + i + 1, LENGTHS, PATHS).node_params)
                 seed = first_seed + i
-                run = ScenarioRun(plan(seed, LENGTHS), Stack(bridge, node, ros, sim, record, ns), endpoints[ns],
-                                  restart=functools.partial(_start_in, ns))
+                p = plan(seed, LENGTHS, PATHS)
+                run = ScenarioRun(p, Stack(bridge, node, ros, sim, record, ns), endpoints[ns],
+                                  restart=functools.partial(_start_in, ns, p.node_params))
                 t_run = time.monotonic()
                 bad = run.run(latencies, coverage)
-                print(f"chaos seed {seed}: {run.plan.length}, aimed at {run.plan.aim}, landed in {run.landing}, "
+                print(f"chaos seed {seed}: {run.plan.length}, {run.plan.path}, aimed at {run.plan.aim}, landed in {run.landing}, "
                       f"{time.monotonic() - t_run:.1f} s {({k: round(v, 1) for k, v in run.timing.items()})}", flush=True)
                 for code, stop_s, output in run.exits:
                     if code != 0 or stop_s > 5.0:
@@ -161,6 +166,6 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
     assert not shortfalls, shortfalls
 
 
-def _start_in(ns: str):
-    return start_mode_manager(int(os.environ["G1_TEST_SDK_DOMAIN"]), *NODE_PARAMS,
+def _start_in(ns: str, params: tuple[str, ...]):
+    return start_mode_manager(int(os.environ["G1_TEST_SDK_DOMAIN"]), *NODE_PARAMS, *params,
                               remaps=(f"__ns:={ns}", f"/estop:={ns}/estop", f"/cmd_vel:={ns}/cmd_vel"))

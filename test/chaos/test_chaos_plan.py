@@ -5,7 +5,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 from chaos.coverage import REQUIRED, Coverage, Landing
-from chaos.plan import SETUP, TRANSITION_DELAY_S, plan
+from chaos.plan import FIRMWARES, PATHS, SETUP, TRANSITION_DELAY_S, USER_STREAM, plan
 from chaos.scenario import Claims, judge
 from g1_mode_manager.protocol import api_ids
 
@@ -13,6 +13,36 @@ from g1_mode_manager.protocol import api_ids
 def test_any_run_of_consecutive_seeds_as_long_as_the_cell_list_aims_at_every_cell() -> None:
     for first in (0, 7000, 52017):
         assert {plan(s).aim for s in range(first, first + len(REQUIRED))} == set(REQUIRED)
+
+
+def test_any_run_of_twice_as_many_seeds_aims_at_every_cell_on_each_path() -> None:
+    for first in (0, 7000, 52017):
+        plans = [plan(s) for s in range(first, first + 2 * len(REQUIRED))]
+        assert {(p.aim, p.path) for p in plans} == {(cell, path) for cell in REQUIRED for path in PATHS}
+    assert {plan(s, paths=("user_ctrl",)).path for s in range(10)} == {"user_ctrl"}
+
+
+def test_the_user_ctrl_path_plays_a_firmware_and_keeps_the_switches_long_where_it_aims_at_them() -> None:
+    into, out = str(api_ids.LOCO_SWITCH_TO_USER_CTRL), str(api_ids.LOCO_SWITCH_TO_INTERNAL_CTRL)
+    exits = set()
+    for seed in range(1, 600, 2):
+        p = plan(seed)
+        assert p.path == "user_ctrl" and p.faults["user_ctrl"] in FIRMWARES
+        assert p.node_params[0] == "low_level_path:=user_ctrl"
+        setup = [(kind, arg) for _, who, kind, arg in p.actions if who == SETUP]
+        streamed = [arg for _, who, kind, arg in p.actions if who == USER_STREAM and kind == "lowcmd"]
+        if p.aim[0] == "->LOW_LEVEL":
+            assert setup[-1] == ("mode", "low_level") and p.faults["delay_s"][into][0] >= TRANSITION_DELAY_S[0]
+        if p.aim[0] == "LOW_LEVEL":  # held by a stream, or by damping on silence where nothing may be in flight
+            assert streamed or (p.aim[1] == "nothing" and "user_ctrl_silence:=damp" in p.node_params)
+        if setup[:1] == [("mode", "low_level")] and len(setup) == 3:  # a way out of LOW_LEVEL after a pause
+            assert setup[1][0] == "pause" and streamed and p.gantry
+            assert p.faults["delay_s"][out][0] >= TRANSITION_DELAY_S[0]
+            exits.add(setup[2])
+    assert exits == {("mode", "high_level"), ("mode", "idle")}
+    release = [plan(s) for s in range(0, 100, 2)]
+    assert all(p.node_params == ("low_level_path:=release",) for p in release)
+    assert not any(into in p.faults["delay_s"] or "user_ctrl" in p.faults for p in release)
 
 
 def test_a_plan_is_its_seed() -> None:
@@ -29,7 +59,7 @@ def test_aims_set_up_what_they_aim_at() -> None:
             assert p.actions == [] and p.kill_at is None
         if row in ("IDLE", "HIGH_LEVEL", "LOW_LEVEL"):
             assert setup == [("mode", row.lower())]
-        if row == "->LOW_LEVEL":  # kept long by the robot: ReleaseMode and CheckMode answered late
+        if row == "->LOW_LEVEL" and p.path == "release":  # kept long by the robot: ReleaseMode and CheckMode late
             assert setup[-1] == ("mode", "low_level")
             for api in (api_ids.MS_RELEASE_MODE, api_ids.MS_CHECK_MODE):
                 assert p.faults["delay_s"][str(api)][0] >= TRANSITION_DELAY_S[0]

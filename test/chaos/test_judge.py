@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from types import SimpleNamespace
 
-from chaos.scenario import FAULT_DAMPED_S, GRACE_S, Claims, judge
+from chaos.scenario import FAULT_DAMPED_S, GRACE_S, HOLD_KP, Claims, judge
 from g1_mode_manager.protocol import api_ids
 
 IDLE, HIGH_LEVEL, LOW_LEVEL, EMERGENCY, FAULT = 1, 2, 3, 4, 5
@@ -94,3 +94,53 @@ def test_a_successors_low_level_frames_are_not_judged_in_the_killed_nodes_life()
     events.insert(1, _lowcmd(7.0))
     bad = [why for why in judge(events, claims, END) if "after leaving LOW_LEVEL" in why]
     assert len(bad) == 1 and bad[0].startswith("user lowcmd frame (kp 40.0) 2.000 s after leaving LOW_LEVEL"), bad
+
+
+def _user_ctrl_record(*frames: dict, svc: str = "ai") -> list[dict]:
+    """Standing, under user control from 2.0 to 5.0, e-stopped at 20.0."""
+    t_estop = 20.0
+    return [_state(0.0, 500), {**_state(2.0, 1000), "svc": svc}, _state(5.0, 500), *frames,
+            _damp(t_estop + 0.001, True), _damp(t_estop + 0.002, False), _state(t_estop + 0.003, 1)]
+
+
+def _user_lowcmd(t: float, kp: float, why: str | None = None) -> dict:
+    return {**_lowcmd(t), "topic": "user_lowcmd", "kp_max": kp, "ok": why is None, "why": why}
+
+
+def test_on_the_user_ctrl_path_the_hand_over_before_the_switch_and_the_users_frames_inside_it_are_clean() -> None:
+    frames = [_user_lowcmd(1.9, HOLD_KP, "not_user_ctrl"), *(_user_lowcmd(2.1 + 0.01 * k, 40.0) for k in range(10))]
+    assert judge(_user_ctrl_record(*frames), Claims(t_estop=20.0), END, path="user_ctrl") == []
+
+
+def test_on_the_user_ctrl_path_a_user_frame_outside_user_control_is_a_violation() -> None:
+    bad = judge(_user_ctrl_record(_user_lowcmd(1.95, 40.0, "not_user_ctrl")), Claims(t_estop=20.0), END,
+                path="user_ctrl")
+    assert len(bad) == 1 and bad[0].startswith("a user frame (kp 40.0) reached the robot outside user control"), bad
+
+
+def test_on_the_user_ctrl_path_a_released_robot_or_a_frame_on_rt_lowcmd_is_a_violation() -> None:
+    release = {"k": "req", "t": 1.0, "svc": "motion_switcher", "api": api_ids.MS_RELEASE_MODE, "p": "{}",
+               "noreply": False}
+    bad = judge([release, *_user_ctrl_record(svc="")], Claims(t_estop=20.0), END, path="user_ctrl")
+    assert any(why.startswith("ReleaseMode on the user_ctrl path") for why in bad), bad
+    assert any(why.startswith("the robot released (limp) on the user_ctrl path") for why in bad), bad
+    damping = {**_lowcmd(3.0), "kp_max": 0.0}
+    bad = judge(_user_ctrl_record(damping), Claims(t_estop=20.0), END, path="user_ctrl")
+    assert len(bad) == 1 and bad[0].startswith("a frame on rt/lowcmd on the user_ctrl path"), bad
+
+
+def test_on_the_release_path_a_frame_on_rt_user_lowcmd_is_a_violation() -> None:
+    bad = judge(_user_ctrl_record(_user_lowcmd(3.0, 0.0)), Claims(t_estop=20.0), END, path="release")
+    assert len(bad) == 1 and bad[0].startswith("a frame on rt/user_lowcmd on the release path"), bad
+
+
+def test_a_hold_frame_after_the_estop_is_a_violation_and_after_leaving_low_level_is_not() -> None:
+    claims = Claims(t_estop=20.0)
+    claims.modes = [(2.1, _mode(LOW_LEVEL)), (4.0, _mode(LOW_LEVEL, transition=True)), (5.1, _mode(HIGH_LEVEL)),
+                    (20.01, _mode(EMERGENCY, True))]
+    holds = [_user_lowcmd(4.0 + 0.02 * k, HOLD_KP) for k in range(50)]  # the hand-back's hold, until fsm 500 shows
+    assert judge(_user_ctrl_record(*holds), claims, END, path="user_ctrl") == []
+    bad = judge(_user_ctrl_record(*holds, _user_lowcmd(20.5, HOLD_KP, "not_user_ctrl")), claims, END, path="user_ctrl")
+    assert bad == [f"user_lowcmd frame (kp {HOLD_KP}) after the e-stop"], bad
+    bad = judge(_user_ctrl_record(_user_lowcmd(4.5, 40.0)), claims, END, path="user_ctrl")
+    assert len(bad) == 1 and "s after leaving LOW_LEVEL" in bad[0], bad
