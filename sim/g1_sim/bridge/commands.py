@@ -120,46 +120,41 @@ class CommandIntake:
 
     def on_lowcmd(self, msg: LowCmd_) -> str | None:
         """Apply a rt/lowcmd frame; returns the reason it was ignored, or None."""
-        self._count(LOWCMD, "received")
-        content = self._crc(msg)
-        m = motor_arrays(msg, range(NUM_JOINTS))
-        why = self._check_lowcmd(msg, m, content)
-        if why is None:
-            enabled = m[0] == MOTOR_ENABLED
-            self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
-            self._count(LOWCMD, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
-        else:
-            self._ignore(LOWCMD, why)
-        if self._on_frame is not None:
-            self._on_frame(LOWCMD, why, 0.0, float(np.nanmax(m[4])), content, crc_state(int(msg.crc), content))
-        return why
+        return self._on_joint_frame(LOWCMD, msg, self._apply_lowcmd)
 
-    def _check_lowcmd(self, msg: LowCmd_, m: np.ndarray, content: int) -> str | None:
-        why = _check_motor_frame(msg, m, content)
-        if why is not None:
-            return why
+    def _apply_lowcmd(self, m: np.ndarray, enabled: np.ndarray) -> str | None:
         if self._robot.user_ctrl_active:
             return USER_CTRL_ACTIVE
         if self._robot.sport_active():
             return NOT_DEBUG_MODE
+        self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
         return None
 
     def on_user_lowcmd(self, msg: LowCmd_) -> str | None:
         """Apply a rt/user_lowcmd frame; returns the reason it was ignored, or None. The robot decides whether
         user control is in force (under its lock, so a frame never lands on the wrong side of the switch)."""
-        self._count(USER_LOWCMD, "received")
+        return self._on_joint_frame(USER_LOWCMD, msg, self._apply_user_lowcmd)
+
+    def _apply_user_lowcmd(self, m: np.ndarray, enabled: np.ndarray) -> str | None:
+        return None if self._robot.apply_user_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled) else NOT_USER_CTRL
+
+    def _on_joint_frame(self, topic: str, msg: LowCmd_,
+                        apply: Callable[[np.ndarray, np.ndarray], str | None]) -> str | None:
+        """A frame that drives all 29 motors: the robot's checks of any such frame, then ``apply`` (the topic's own
+        rule, which applies the frame or says why not); counted, and recorded through ``on_frame``."""
+        self._count(topic, "received")
         content = self._crc(msg)
         m = motor_arrays(msg, range(NUM_JOINTS))
-        why = _check_motor_frame(msg, m, content)
         enabled = m[0] == MOTOR_ENABLED
-        if why is None and not self._robot.apply_user_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled):
-            why = NOT_USER_CTRL
+        why = _check_motor_frame(msg, m, content)
         if why is None:
-            self._count(USER_LOWCMD, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
+            why = apply(m, enabled)
+        if why is None:
+            self._count(topic, "accepted", *(() if enabled.all() else (MOTORS_DISABLED,)))
         else:
-            self._ignore(USER_LOWCMD, why)
+            self._ignore(topic, why)
         if self._on_frame is not None:
-            self._on_frame(USER_LOWCMD, why, 0.0, float(np.nanmax(m[4])), content, crc_state(int(msg.crc), content))
+            self._on_frame(topic, why, 0.0, float(np.nanmax(m[4])), content, crc_state(int(msg.crc), content))
         return why
 
     def on_arm_sdk(self, msg: LowCmd_) -> str | None:
