@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
@@ -28,8 +29,12 @@ class Operators:
     """Runs a plan's actions against ``stack``; ``row_reached`` starts a stream column, ``send_column`` sends a
     request column."""
 
-    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event) -> None:
+    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event,
+                 renew_latched: Callable[[], None] = lambda: None) -> None:
+        """``renew_latched()``: before the setup, replaces a node the noise left in EMERGENCY (latched for the
+        node's life) with a fresh one, so that the aimed row can still be reached."""
         self._stack = stack
+        self._renew_latched = renew_latched
         self._plan = p
         self._in_flight = in_flight
         self._stop = stop
@@ -76,6 +81,7 @@ class Operators:
         while not self.node_back.wait(0.1):
             if self._stop.is_set():
                 return False
+        self._renew_latched()
         if fault_claimed():
             self._clear(fault_claimed)
         return True

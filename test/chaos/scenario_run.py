@@ -46,6 +46,7 @@ class ScenarioRun:
         self._killed: list[ManagedProcess] = []
         self.landing: Landing | None = None
         self.timing: dict[str, float] = {}  # s from the scenario's start: aimed, answered, operators, damped
+        self.renewed = False  # a node left in EMERGENCY by the noise was replaced before the setup
 
     def run(self, latencies: list[float], coverage: Coverage) -> list[str]:
         p, stack = self.plan, self.stack
@@ -53,7 +54,7 @@ class ScenarioRun:
         estop_pub = self.ends.estop_pubs.get(p.estop_via)
         stop = threading.Event()
         in_flight = InFlight()
-        ops = Operators(stack, p, in_flight, stop)
+        ops = Operators(stack, p, in_flight, stop, renew_latched=lambda: self._renew_latched(claims))
         try:
             stack.sim.reset()
             stack.ros.wait_node_answers(f"{stack.ns}/g1_mode_manager")
@@ -179,6 +180,25 @@ class ScenarioRun:
         finally:
             ops.node_back.set()
 
+    def _renew_latched(self, claims: Claims) -> None:
+        """A node the noise left in EMERGENCY (the remote's L2+B, most often) is stopped by SIGINT and a fresh one
+        started in its place, as after a SIGKILL: judged as a restart (it forwards nothing before it is asked for a
+        mode), and its exit as any other."""
+        with claims.lock:
+            last = claims.modes[-1][1] if claims.modes else None
+        if last is None or last.mode != Mode.EMERGENCY:
+            return
+        old = self.stack.node
+        t_stop = time.monotonic()
+        code = old.stop()
+        t_exit = time.monotonic()  # its last claims were sent before this: its life ends here
+        with claims.lock:
+            claims.restarts.append((t_exit, float("inf")))
+        self.exits.append((code, t_exit - t_stop, old.output()))
+        self.renewed = True
+        self.stack.node = self._restart()
+        self.stack.ros.wait_node_answers(f"{self.stack.ns}/g1_mode_manager")
+
     def _diagnosis(self) -> str:
         """Which side is stuck when the node does not answer: the node (dead, or alive with its services in the
         graph but serving nothing) or the test's kept clients (a fresh client gets an answer)."""
@@ -204,6 +224,7 @@ class ScenarioRun:
         return [f"{p.length} scenarios",
                 *(["second e-stops"] if p.second_estop_after is not None else []),
                 *(["node SIGKILLed and restarted"] if p.kill_at is not None else []),
+                *(["node renewed after the noise's EMERGENCY"] if self.renewed else []),
                 *(["FAULT entered"] if any(m.mode == Mode.FAULT for m in modes) else []),
                 *(["holds"] if any(m.holds for m in modes) else []),
                 *(["hung in the gantry"] if p.gantry else []),
