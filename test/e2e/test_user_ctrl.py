@@ -240,9 +240,7 @@ def test_from_a_damped_robot_and_back_to_damping_by_last(shared_stack_factory) -
 
 def test_entry_straight_from_walking_waits_for_rest(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=(USER_CTRL,))
-    assert stack.set_mode("high_level").success
-    assert stack.loco("start").success
-    stack.drive_sim_time(0.4, 2.0)
+    enter_walking(stack, rest=False)
     t0 = time.monotonic()
     r = stack.set_mode("low_level")  # no controller: handed back once the entry is done (silence)
     print(f"set_mode low_level straight from walking: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")

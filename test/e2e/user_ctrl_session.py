@@ -103,12 +103,14 @@ def lowest_pelvis(ev, since: float = float("-inf")) -> float:
     return min(e["z"] for e in of_kind(ev, "body") if e["t"] >= since)
 
 
-def enter_walking(stack) -> None:
+def enter_walking(stack, *, rest: bool = True) -> None:
+    """HIGH_LEVEL, the robot walked for 2 s of sim time; with ``rest``, then stopped and come to rest."""
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
     stack.drive_sim_time(0.4, 2.0)  # walking
-    wait_sim(stack, 2.5)  # the watchdog's StopMove, then the walk-run controller comes to rest (fsm stays 500):
-    # a stiff hold of a pose taken mid-step falls over, whoever holds it
+    if rest:
+        wait_sim(stack, 2.5)  # the watchdog's StopMove, then the walk-run controller comes to rest (fsm stays 500):
+        # a stiff hold of a pose taken mid-step falls over, whoever holds it
 
 
 def enter_user_ctrl(stack, controller: HoldController) -> float:
