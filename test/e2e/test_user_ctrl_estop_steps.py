@@ -88,8 +88,9 @@ def _judge(stack, t0: float, estop, interrupted: list, *, held: dict | None, may
 
     ``held``: the step's request the e-stop must land inside (received before its first packet, handled after).
     ``may_be_user_ctrl``: the node had sent or was about to send 7110 (the robot may switch): the user-control
-    e-stop's order; where the robot was in user control before PASSIVE (at the e-stop, or by a switch that landed
-    after it), a damping frame applied there."""
+    e-stop's order; where the robot was in user control at the e-stop, a damping frame applied there before PASSIVE.
+    A switch that lands after the e-stop shows fsm 1000 for a few ms before PASSIVE, shorter than the relay's damping
+    period: printed, not asserted."""
     assert estop.success, estop.message
     assert interrupted and not interrupted[0].success and "preempted by e-stop" in interrupted[0].message, interrupted
     assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), \
@@ -130,10 +131,12 @@ def _judge(stack, t0: float, estop, interrupted: list, *, held: dict | None, may
     print(f"first damping frame +{(damping[0]['t'] - t0) * 1000:.1f} ms, first applied {applied[0] if applied else 'none'}, "
           f"PASSIVE +{(passive['t'] - t0) * 1000:.0f} ms")
     shown = [(e["t"], e["fsm"]) for e in of_kind(ev, "state") if e["t"] <= passive["t"]]
-    in_user_ctrl = any(fsm == USER_CTRL_FSM_ID for t, fsm in shown if t >= t0) or \
-        max((t, fsm) for t, fsm in shown if t < t0)[1] == USER_CTRL_FSM_ID
-    if in_user_ctrl:
+    if max((t, fsm) for t, fsm in shown if t < t0)[1] == USER_CTRL_FSM_ID:  # in user control at the e-stop
         assert any(e["ok"] for e in damping), "no damping frame applied while the robot was in user control"
+    late = [t for t, fsm in shown if t >= t0 and fsm == USER_CTRL_FSM_ID]
+    if late:  # a switch sent before the e-stop landed after it: fsm 1000 until PASSIVE, the relay's damping at 50 Hz
+        print(f"a late switch: fsm 1000 for {(passive['t'] - late[0]) * 1000:.0f} ms before PASSIVE, damping frames "
+              f"applied meanwhile: {sum(e['ok'] for e in damping)}")
     assert shot["t"] <= passive["t"], "SwitchToInternalCtrl(PASSIVE) before the DampNoReply"
     assert any(e["t"] >= passive["t"] for e in damps), "no Damp after SwitchToInternalCtrl(PASSIVE)"
     return ev
