@@ -1,8 +1,7 @@
 """LOW_LEVEL by the firmware's user control, the real node against the real sim, judged on the sim's record.
 
-A user's controller here is a stiff hold of the measured pose at 500 Hz on ~/lowcmd (the sim's own tests show
-such a hold keeps the 29-dof G1 standing); its gains differ from the node's hand-over frame, so the record tells
-the user's frames (kp_max USER_KP) from the node's (kp_max HOLD_KP).
+The user's controller and the record's readers are e2e/user_ctrl_session.py's (shared with the e-stops inside
+each step of the switch, test_user_ctrl_estop_steps.py).
 """
 
 from __future__ import annotations
@@ -12,145 +11,40 @@ import threading
 import time
 
 import pytest
-from g1_mode_manager_msgs.msg import JointCommand
-from sensor_msgs.msg import JointState
 
-from e2e.conftest import Stack
+from e2e.user_ctrl_session import (
+    HOLD_KP,
+    STANDING_Z_M,
+    STEADY,
+    USER_CTRL,
+    USER_KP,
+    HoldController,
+    enter_user_ctrl,
+    enter_walking,
+    frames_on,
+    fsm_states,
+    held_in_user_ctrl,
+    internal_ctrl,
+    lowest_pelvis,
+    no_user_frame_before_1000,
+    wait_sim,
+)
 from g1_mode_manager.core.user_ctrl import UNSUPPORTED, UserCtrlConfig
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, USER_CTRL_FSM_ID, InternalCtrl
-from g1_mode_manager.protocol.motors import JOINT_NAMES
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
-from support.timing import CONTROLLER_STALL_S, HAND_BACK_S, RECORD_WAIT_S, check_latency
+from support.timing import HAND_BACK_S, RECORD_WAIT_S, check_latency
 
 pytestmark = pytest.mark.e2e
-
-USER_KP, USER_KD = 250.0, 6.0
-HOLD_KP = UserCtrlConfig().hold_kp
-STANDING_Z_M = 0.6
-USER_CTRL = "low_level_path:=user_ctrl"
-#: For the tests that are not about silence: the test's controller, a thread of the pytest process, may stall on a
-#: loaded machine longer than the default lowcmd_timeout_s, and the node would then rightly hand the robot back.
-STEADY = f"lowcmd_timeout_s:={CONTROLLER_STALL_S}"
-
-
-class HoldController:
-    """A user's controller: every joint held at the pose measured when it starts, published at ``rate_hz``."""
-
-    def __init__(self, stack, rate_hz: float = 500.0) -> None:
-        node = stack.ros.node
-        self._pub = node.create_publisher(JointCommand, stack.name("lowcmd"), 10)
-        self._latest: dict[str, float] = {}
-        node.create_subscription(JointState, "/joint_states", self._on_joint_states, 10)
-        assert wait_until(lambda: self._pub.get_subscription_count() > 0 and len(self._latest) == 29, 15.0)
-        self._period = 1.0 / rate_hz
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
-        self.sent = 0
-
-    def _on_joint_states(self, msg: JointState) -> None:
-        self._latest = dict(zip(msg.name, msg.position, strict=False))
-
-    def start(self) -> None:
-        pose = [float(self._latest[n]) for n in JOINT_NAMES]
-        msg = JointCommand(name=list(JOINT_NAMES), q=pose, dq=[0.0] * 29, tau=[0.0] * 29, kp=[USER_KP] * 29,
-                           kd=[USER_KD] * 29)
-        self._thread = threading.Thread(target=self._run, args=(msg,), daemon=True)
-        self._thread.start()
-
-    def _run(self, msg: JointCommand) -> None:
-        next_at = time.monotonic()
-        while not self._stop.is_set():
-            try:
-                self._pub.publish(msg)
-            except Exception:  # the test's client closed under a controller left running: it is dead
-                return
-            self.sent += 1
-            next_at += self._period
-            delay = next_at - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            else:
-                next_at = time.monotonic()
-
-    def stop(self) -> float:
-        """Stop publishing (a killed controller); returns when."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(2.0)
-        return time.monotonic()
-
-
-def _wait_sim(stack, seconds: float) -> None:
-    end = stack.sim.get()["sim_time"] + seconds
-    assert wait_until(lambda: stack.sim.get()["sim_time"] >= end, seconds * 20 + 10, period_s=0.1)
-
-
-def _states(ev) -> list[tuple[int, int]]:
-    """(index in the record, fsm) of each state line."""
-    return [(i, e["fsm"]) for i, e in enumerate(ev) if e["k"] == "state"]
-
-
-def _frames(ev, topic: str) -> list[tuple[int, dict]]:
-    return [(i, e) for i, e in enumerate(ev) if e["k"] == "frame" and e["topic"] == topic]
-
-
-def _internal_ctrl(ev) -> list[int]:
-    return [json.loads(e["p"])["data"] for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL)]
-
-
-def _lowest(ev, since: float = float("-inf")) -> float:
-    return min(e["z"] for e in of_kind(ev, "body") if e["t"] >= since)
-
-
-def _enter_walking(stack) -> None:
-    assert stack.set_mode("high_level").success
-    assert stack.loco("start").success
-    stack.drive_sim_time(0.4, 2.0)  # walking
-    _wait_sim(stack, 2.5)  # the watchdog's StopMove, then the walk-run controller comes to rest (fsm stays 500):
-    # a stiff hold of a pose taken mid-step falls over, whoever holds it
-
-
-def _enter_user_ctrl(stack, controller: HoldController) -> float:
-    controller.start()  # the controller runs first; its frames pass only once LOW_LEVEL is entered
-    t0 = time.monotonic()
-    r = stack.set_mode("low_level")
-    print(f"set_mode low_level: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
-    assert r.success and "[low_level_path: user_ctrl]" in r.message, r.message
-    return t0
-
-
-def _no_user_frame_before_1000(ev) -> None:
-    states = _states(ev)
-    first_1000 = next(i for i, fsm in states if fsm == USER_CTRL_FSM_ID)
-    user = [(i, e) for i, e in _frames(ev, "user_lowcmd") if e["kp_max"] == USER_KP]
-    assert user, "no user frame reached the robot"
-    early = [e for i, e in user if i < first_1000]
-    assert not early, f"{len(early)} user frames before fsm 1000 was on the record"
-    hand_over = [e for i, e in _frames(ev, "user_lowcmd") if i < first_1000]
-    assert hand_over and all(e["kp_max"] == HOLD_KP for e in hand_over), "no hand-over frame before the switch"
-
-
-def _held_in_user_ctrl(shared_stack_factory) -> tuple[Stack, HoldController]:
-    """A node on the user_ctrl path, the robot walked, then in user control held by the test's controller for a
-    second of sim time."""
-    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
-    stack.modes()  # every ~/mode from here on
-    controller = HoldController(stack)
-    _enter_walking(stack)
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 1.0)
-    return stack, controller
-
 
 def test_walking_to_user_control_and_back_to_walking(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=(USER_CTRL, STEADY))
     controller = HoldController(stack)
-    _enter_walking(stack)
+    enter_walking(stack)
     start = time.monotonic()
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 10.0)
+    enter_user_ctrl(stack, controller)
+    wait_sim(stack, 10.0)
     t_out = time.monotonic()
     r = stack.set_mode("high_level")
     print(f"set_mode high_level: {r.message} ({(time.monotonic() - t_out) * 1000:.0f} ms)")
@@ -163,15 +57,15 @@ def test_walking_to_user_control_and_back_to_walking(shared_stack_factory) -> No
     stack.drive_sim_time(0.0, 1.0)
 
     ev = stack.record.events()
-    lowest = _lowest(ev, start)
+    lowest = lowest_pelvis(ev, start)
     print(f"lowest pelvis {lowest:.3f} m; controller frames {controller.sent}")
     assert lowest > STANDING_Z_M
-    _no_user_frame_before_1000(ev)
-    assert _frames(ev, "lowcmd") == [], "a frame on rt/lowcmd"
-    fsms = [fsm for _, fsm in _states(ev)]
+    no_user_frame_before_1000(ev)
+    assert frames_on(ev, "lowcmd") == [], "a frame on rt/lowcmd"
+    fsms = [fsm for _, fsm in fsm_states(ev)]
     i_1000 = fsms.index(USER_CTRL_FSM_ID)
     assert fsms[i_1000 + 1] in STANDING_FSM_IDS, fsms  # handed back to the walk-run controller, standing
-    assert _internal_ctrl(ev) == [InternalCtrl.WALKRUN]
+    assert internal_ctrl(ev) == [InternalCtrl.WALKRUN]
     switcher = [e["api"] for e in requests(ev) if e["svc"] == "motion_switcher" and e["t"] >= start]
     assert api.MS_RELEASE_MODE not in switcher and api.MS_SELECT_MODE not in switcher
 
@@ -180,12 +74,12 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
     stack = shared_stack_factory(node_params=(USER_CTRL,))
     controller = HoldController(stack)
     modes = stack.modes()
-    _enter_walking(stack)
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 2.0)
+    enter_walking(stack)
+    enter_user_ctrl(stack, controller)
+    wait_sim(stack, 2.0)
     killed = controller.stop()
     assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS, 10.0)
-    _wait_sim(stack, 10.0)
+    wait_sim(stack, 10.0)
     status = stack.sim.get()
     assert not status["user_ctrl"] and status["sport"]["fsm_id"] in STANDING_FSM_IDS, status["sport"]
     ev = stack.record.events()
@@ -193,25 +87,25 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
     # lowcmd_timeout_s before the kill, and then the node rightly hands the robot back at that stall
     entered = next(e["t"] for e in ev if e["k"] == "state" and e["fsm"] == USER_CTRL_FSM_ID)
     back = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= entered)
-    silent_since = max(e["t"] for _, e in _frames(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["t"] <= back["t"])
+    silent_since = max(e["t"] for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["t"] <= back["t"])
     check_latency("controller silent -> hand-back request on the robot", silent_since, back["t"], HAND_BACK_S)
     print(f"the controller was {'stopped' if silent_since >= killed - 0.05 else 'stalled'} at its last frame")
     assert json.loads(back["p"])["data"] == InternalCtrl.WALKRUN
-    lowest = _lowest(ev, silent_since)
+    lowest = lowest_pelvis(ev, silent_since)
     print(f"lowest pelvis after the silence {lowest:.3f} m")
     assert lowest > STANDING_Z_M
     # until the hand-back the robot got the node's hold frames, never nothing
-    after_silence = [e for i, e in _frames(ev, "user_lowcmd") if silent_since <= e["t"] <= back["t"]]
+    after_silence = [e for i, e in frames_on(ev, "user_lowcmd") if silent_since <= e["t"] <= back["t"]]
     assert after_silence and all(e["kp_max"] in (HOLD_KP, USER_KP) for e in after_silence)
     assert wait_until(lambda: modes and modes[-1].name == "IDLE", 5.0), [m.name for m in modes[-3:]]
     said = next(m.last_refusal or m.last_error for m in reversed(modes) if m.name == "IDLE")
     print(f"~/mode after the hand-back: IDLE ({said!r})")
     assert "silent" in said and "walk-run" in said
-    assert _frames(ev, "lowcmd") == []
+    assert frames_on(ev, "lowcmd") == []
 
 
 def test_estop_in_user_control_damps_and_verifies(shared_stack_factory) -> None:
-    stack, controller = _held_in_user_ctrl(shared_stack_factory)
+    stack, controller = held_in_user_ctrl(shared_stack_factory)
     t0 = time.monotonic()
     r = stack.estop()
     answered = time.monotonic()
@@ -220,20 +114,20 @@ def test_estop_in_user_control_damps_and_verifies(shared_stack_factory) -> None:
     assert r.success, r.message
 
     def damping_since() -> list[dict]:
-        return [e for _, e in _frames(stack.record.events(), "user_lowcmd") if e["t"] >= t0 and e["kp_max"] == 0.0]
+        return [e for _, e in frames_on(stack.record.events(), "user_lowcmd") if e["t"] >= t0 and e["kp_max"] == 0.0]
 
     # the sim's frame handler may lag its reader on a loaded machine: wait for the record, not a fixed time
     assert wait_until(lambda: bool(damping_since()), RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after the e-stop"
-    assert wait_until(lambda: _states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
+    assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
     ev = stack.record.events()
     damping = damping_since()
     print(f"first damping frame {(damping[0]['t'] - t0) * 1000:.1f} ms after the e-stop call")
     passive = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= t0]
     assert passive and json.loads(passive[0]["p"])["data"] == InternalCtrl.PASSIVE
     assert damping[0]["t"] <= passive[0]["t"], "the damping frame came after PASSIVE"
-    last_fsm = _states(ev)[-1][1]
+    last_fsm = fsm_states(ev)[-1][1]
     assert last_fsm == 1 and stack.sim.get()["sport"]["fsm_id"] == 1 and not stack.sim.get()["user_ctrl"]
-    user_after = [e for i, e in _frames(ev, "user_lowcmd") if e["t"] >= answered and e["kp_max"] == USER_KP]
+    user_after = [e for i, e in frames_on(ev, "user_lowcmd") if e["t"] >= answered and e["kp_max"] == USER_KP]
     assert not user_after
 
 
@@ -241,7 +135,7 @@ def test_estop_inside_the_entry(shared_stack_factory) -> None:
     stack = shared_stack_factory(faults={"user_ctrl_delay_s": 1.5, "delay_s": {"7110": 0.5}},
                                  node_params=(USER_CTRL, STEADY, "user_ctrl_switch_timeout_s:=4.0"))
     controller = HoldController(stack)
-    _enter_walking(stack)
+    enter_walking(stack)
     controller.start()
     outcome: list = []
     entry = threading.Thread(target=lambda: outcome.append(stack.set_mode("low_level")))
@@ -257,13 +151,13 @@ def test_estop_inside_the_entry(shared_stack_factory) -> None:
     controller.stop()
     assert outcome and not outcome[0].success and "preempted" in outcome[0].message, outcome
     assert r.success, r.message
-    _wait_sim(stack, 2.0)
+    wait_sim(stack, 2.0)
     status = stack.sim.get()
     assert status["sport"]["fsm_id"] == 1 and not status["user_ctrl"], status["sport"]
     ev = stack.record.events()
-    assert [fsm for _, fsm in _states(ev)][-1] == 1
-    assert not [e for _, e in _frames(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["ok"]]
-    assert _frames(ev, "lowcmd") == []
+    assert [fsm for _, fsm in fsm_states(ev)][-1] == 1
+    assert not [e for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["ok"]]
+    assert frames_on(ev, "lowcmd") == []
 
 
 def test_firmware_without_user_control_is_refused_with_nothing_changed(shared_stack_factory) -> None:
@@ -279,28 +173,28 @@ def test_firmware_without_user_control_is_refused_with_nothing_changed(shared_st
     assert [e["api"] for e in changing] == [api.LOCO_SWITCH_TO_USER_CTRL], changing
     assert [e["code"] for e in requests(ev, api.LOCO_SWITCH_TO_USER_CTRL, kind="done")] == [api.ERR_SERVER_API_NOT_IMPL]
     assert not of_kind(ev, "state"), "the robot's state changed"
-    frames = [e for _, e in _frames(ev, "user_lowcmd")]
+    frames = [e for _, e in frames_on(ev, "user_lowcmd")]
     assert all(not e["ok"] and e["why"] == "not_user_ctrl" for e in frames)  # the hand-over frame, ignored
 
 
 def test_node_stopping_in_user_control_hands_the_robot_back(shared_stack_factory) -> None:
-    stack, controller = _held_in_user_ctrl(shared_stack_factory)
+    stack, controller = held_in_user_ctrl(shared_stack_factory)
     t0 = time.monotonic()
     code = stack.node.stop()
     print(f"node exit {code} after {(time.monotonic() - t0) * 1000:.0f} ms")
     controller.stop()
     assert code == 0, stack.node.output()[-3000:]
-    _wait_sim(stack, 3.0)
+    wait_sim(stack, 3.0)
     status = stack.sim.get()
     assert not status["user_ctrl"] and status["sport"]["fsm_id"] in STANDING_FSM_IDS, status["sport"]
     ev = stack.record.events()
     back = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= t0]
     assert back and json.loads(back[0]["p"])["data"] == InternalCtrl.WALKRUN
-    assert _lowest(ev, t0) > STANDING_Z_M
+    assert lowest_pelvis(ev, t0) > STANDING_Z_M
 
 
 def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> None:
-    stack, controller = _held_in_user_ctrl(shared_stack_factory)
+    stack, controller = held_in_user_ctrl(shared_stack_factory)
     modes = stack.modes()
     t0 = time.monotonic()
     stack.set_faults({"remote_keys": ["L2", "B"]})  # the firmware ignores the remote in user control; the node not
@@ -309,10 +203,10 @@ def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> No
     controller.stop()
     stack.set_faults({})
     # the sim's frame handler may lag its reader on a loaded machine: wait for the record
-    assert wait_until(lambda: any(e["kp_max"] == 0.0 for _, e in _frames(stack.record.events(t0), "user_lowcmd")),
+    assert wait_until(lambda: any(e["kp_max"] == 0.0 for _, e in frames_on(stack.record.events(t0), "user_lowcmd")),
                       RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after L2+B"
     ev = [e for e in stack.record.events() if e["t"] >= t0]
-    damping = [e for _, e in _frames(ev, "user_lowcmd") if e["kp_max"] == 0.0]
+    damping = [e for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == 0.0]
     passive = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL)]
     assert damping and passive and json.loads(passive[0]["p"])["data"] == InternalCtrl.PASSIVE
     print(f"L2+B: first damping frame {(damping[0]['t'] - t0) * 1000:.0f} ms, PASSIVE {(passive[0]['t'] - t0) * 1000:.0f} "
@@ -327,38 +221,36 @@ def test_from_a_damped_robot_and_back_to_damping_by_last(shared_stack_factory) -
     controller = HoldController(stack)
     assert stack.set_mode("high_level").success
     assert stack.loco("damp").success
-    _wait_sim(stack, 3.0)  # damping: the robot sinks and comes to rest
+    wait_sim(stack, 3.0)  # damping: the robot sinks and comes to rest
     assert stack.set_mode("idle").success
-    _enter_user_ctrl(stack, controller)
-    _wait_sim(stack, 1.0)
+    enter_user_ctrl(stack, controller)
+    wait_sim(stack, 1.0)
     r = stack.set_mode("idle")
     print(f"set_mode idle: {r.message}")
     assert r.success and "fsm 1 seen" in r.message, r.message
     controller.stop()
     ev = stack.record.events()
-    fsms = [fsm for _, fsm in _states(ev)]
+    fsms = [fsm for _, fsm in fsm_states(ev)]
     i = fsms.index(USER_CTRL_FSM_ID)
     assert fsms[i - 1] == 1 and fsms[i + 1] == 1, fsms  # from damping, back to damping
-    assert _internal_ctrl(ev) == [InternalCtrl.LAST]
-    _no_user_frame_before_1000(ev)
-    assert _frames(ev, "lowcmd") == []
+    assert internal_ctrl(ev) == [InternalCtrl.LAST]
+    no_user_frame_before_1000(ev)
+    assert frames_on(ev, "lowcmd") == []
 
 
 def test_entry_straight_from_walking_waits_for_rest(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=(USER_CTRL,))
-    assert stack.set_mode("high_level").success
-    assert stack.loco("start").success
-    stack.drive_sim_time(0.4, 2.0)
+    enter_walking(stack, rest=False)
     t0 = time.monotonic()
     r = stack.set_mode("low_level")  # no controller: handed back once the entry is done (silence)
     print(f"set_mode low_level straight from walking: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
     assert r.success, r.message
-    _wait_sim(stack, 3.0)
+    wait_sim(stack, 3.0)
     ev = stack.record.events()
     switch = next(e for e in requests(ev, api.LOCO_SWITCH_TO_USER_CTRL) if e["t"] >= t0)
     body = [e for e in of_kind(ev, "body") if t0 <= e["t"] <= switch["t"]]
     print(f"7110 sent {(switch['t'] - t0) * 1000:.0f} ms after the request; largest |dq| meanwhile "
           f"{max(e['dq'] for e in body):.2f} rad/s, at the switch {body[-1]['dq']:.2f} rad/s")
     assert body[-1]["dq"] <= UserCtrlConfig().rest_speed_rad_s
-    assert _lowest(ev, t0) > STANDING_Z_M
+    assert lowest_pelvis(ev, t0) > STANDING_Z_M
     assert stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS

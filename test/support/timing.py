@@ -67,6 +67,10 @@ ESTOP_NOT_HELD_S: Final = margin(0.5)
 #: A test's own controller (a 500 Hz publisher thread in the pytest process) may stall this long on a loaded
 #: machine: a test that is not about silence sets the node's lowcmd_timeout_s to it.
 CONTROLLER_STALL_S: Final = margin(1.0)
+#: How long a test holds the node inside one step of a switch for an e-stop to land there: the sim's delay_s on the
+#: step's robot call, or the node's wait for rest. The test sees the step begin on the record and sends its e-stop,
+#: which a loaded machine may delay by ~0.5 s; the node's own timeout of such a call is this plus ROUND_TRIP_S.
+STEP_HELD_S: Final = margin(2.0)
 #: How long the sim's record may take to show what the robot received: its frame handlers lag their readers on a
 #: loaded machine, so a test waits for the record to show a frame rather than reading it once after a fixed time.
 RECORD_WAIT_S: Final = margin(10.0)

@@ -1,0 +1,146 @@
+"""What the user-control e2e files share: a user's controller, the way into user control, and the sim's record
+read as they read it.
+
+A user's controller here is a stiff hold of the measured pose at 500 Hz on ~/lowcmd (the sim's own tests show
+such a hold keeps the 29-dof G1 standing); its gains differ from the node's hand-over frame, so the record tells
+the user's frames (kp_max USER_KP) from the node's (kp_max HOLD_KP).
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Sequence
+
+from g1_mode_manager_msgs.msg import JointCommand
+from sensor_msgs.msg import JointState
+
+from e2e.conftest import Stack
+from g1_mode_manager.core.user_ctrl import UserCtrlConfig
+from g1_mode_manager.protocol import api_ids as api
+from g1_mode_manager.protocol.fsm import USER_CTRL_FSM_ID
+from g1_mode_manager.protocol.motors import JOINT_NAMES
+from support.mode_manager import wait_until
+from support.sim_record import of_kind, requests
+from support.timing import CONTROLLER_STALL_S
+
+USER_KP, USER_KD = 250.0, 6.0
+HOLD_KP = UserCtrlConfig().hold_kp
+STANDING_Z_M = 0.6
+USER_CTRL = "low_level_path:=user_ctrl"
+#: For the tests that are not about silence: the test's controller, a thread of the pytest process, may stall on a
+#: loaded machine longer than the default lowcmd_timeout_s, and the node would then rightly hand the robot back.
+STEADY = f"lowcmd_timeout_s:={CONTROLLER_STALL_S}"
+
+
+class HoldController:
+    """A user's controller: every joint held at the pose measured when it starts, published at ``rate_hz``."""
+
+    def __init__(self, stack, rate_hz: float = 500.0) -> None:
+        node = stack.ros.node
+        self._pub = node.create_publisher(JointCommand, stack.name("lowcmd"), 10)
+        self._latest: dict[str, float] = {}
+        node.create_subscription(JointState, "/joint_states", self._on_joint_states, 10)
+        assert wait_until(lambda: self._pub.get_subscription_count() > 0 and len(self._latest) == 29, 15.0)
+        self._period = 1.0 / rate_hz
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.sent = 0
+
+    def _on_joint_states(self, msg: JointState) -> None:
+        self._latest = dict(zip(msg.name, msg.position, strict=False))
+
+    def start(self) -> None:
+        pose = [float(self._latest[n]) for n in JOINT_NAMES]
+        msg = JointCommand(name=list(JOINT_NAMES), q=pose, dq=[0.0] * 29, tau=[0.0] * 29, kp=[USER_KP] * 29,
+                           kd=[USER_KD] * 29)
+        self._thread = threading.Thread(target=self._run, args=(msg,), daemon=True)
+        self._thread.start()
+
+    def _run(self, msg: JointCommand) -> None:
+        next_at = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                self._pub.publish(msg)
+            except Exception:  # the test's client closed under a controller left running: it is dead
+                return
+            self.sent += 1
+            next_at += self._period
+            delay = next_at - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            else:
+                next_at = time.monotonic()
+
+    def stop(self) -> float:
+        """Stop publishing (a killed controller); returns when."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(2.0)
+        return time.monotonic()
+
+
+def wait_sim(stack, seconds: float) -> None:
+    end = stack.sim.get()["sim_time"] + seconds
+    assert wait_until(lambda: stack.sim.get()["sim_time"] >= end, seconds * 20 + 10, period_s=0.1)
+
+
+def fsm_states(ev) -> list[tuple[int, int]]:
+    """(index in the record, fsm) of each state line."""
+    return [(i, e["fsm"]) for i, e in enumerate(ev) if e["k"] == "state"]
+
+
+def frames_on(ev, topic: str) -> list[tuple[int, dict]]:
+    return [(i, e) for i, e in enumerate(ev) if e["k"] == "frame" and e["topic"] == topic]
+
+
+def internal_ctrl(ev) -> list[int]:
+    return [json.loads(e["p"])["data"] for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL)]
+
+
+def lowest_pelvis(ev, since: float = float("-inf")) -> float:
+    return min(e["z"] for e in of_kind(ev, "body") if e["t"] >= since)
+
+
+def enter_walking(stack, *, rest: bool = True) -> None:
+    """HIGH_LEVEL, the robot walked for 2 s of sim time; with ``rest``, then stopped and come to rest."""
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    stack.drive_sim_time(0.4, 2.0)  # walking
+    if rest:
+        wait_sim(stack, 2.5)  # the watchdog's StopMove, then the walk-run controller comes to rest (fsm stays 500):
+        # a stiff hold of a pose taken mid-step falls over, whoever holds it
+
+
+def enter_user_ctrl(stack, controller: HoldController) -> float:
+    controller.start()  # the controller runs first; its frames pass only once LOW_LEVEL is entered
+    t0 = time.monotonic()
+    r = stack.set_mode("low_level")
+    print(f"set_mode low_level: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
+    assert r.success and "[low_level_path: user_ctrl]" in r.message, r.message
+    return t0
+
+
+def no_user_frame_before_1000(ev) -> None:
+    states = fsm_states(ev)
+    first_1000 = next(i for i, fsm in states if fsm == USER_CTRL_FSM_ID)
+    user = [(i, e) for i, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP]
+    assert user, "no user frame reached the robot"
+    early = [e for i, e in user if i < first_1000]
+    assert not early, f"{len(early)} user frames before fsm 1000 was on the record"
+    hand_over = [e for i, e in frames_on(ev, "user_lowcmd") if i < first_1000]
+    assert hand_over and all(e["kp_max"] == HOLD_KP for e in hand_over), "no hand-over frame before the switch"
+
+
+def held_in_user_ctrl(shared_stack_factory, *, faults: dict | None = None,
+                      node_params: Sequence[str] = ()) -> tuple[Stack, HoldController]:
+    """A node on the user_ctrl path, the robot walked, then in user control held by the test's controller for a
+    second of sim time (``faults`` and ``node_params``: the sim's and the node's, on top of the path's)."""
+    stack = shared_stack_factory(faults=faults, node_params=(USER_CTRL, STEADY, *node_params))
+    stack.modes()  # every ~/mode from here on
+    controller = HoldController(stack)
+    enter_walking(stack)
+    enter_user_ctrl(stack, controller)
+    wait_sim(stack, 1.0)
+    return stack, controller
