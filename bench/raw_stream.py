@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import threading
 import time
 
 from g1_mode_manager.protocol.dds import init_channels
+from harness.rate import run_at_rate
 
 #: Marker values are exact in float32 (multiples of 1/256) and unique over 4096 frames.
 MARKERS = 4096
@@ -56,10 +58,13 @@ def main(argv: list[str] | None = None) -> int:
     msg = unitree_hg_msg_dds__LowCmd_()
     crc = CRC()
     sends: list[tuple[float, float]] = []
-    period = 1.0 / args.rate
     start_cpu, start = time.process_time(), time.monotonic()
-    next_t, seq = start, 0
-    while time.monotonic() - start < args.seconds:
+    seq = 0
+
+    def write() -> bool:
+        nonlocal seq
+        if time.monotonic() - start >= args.seconds:
+            return False
         msg.mode_pr = 0
         msg.mode_machine = mode_machine
         for i in joints:
@@ -77,12 +82,9 @@ def main(argv: list[str] | None = None) -> int:
         pub.Write(msg)
         sends.append((marker(seq), sent))
         seq += 1
-        next_t += period
-        delay = next_t - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-        else:
-            next_t = time.monotonic()
+        return True
+
+    run_at_rate(args.rate, write, threading.Event())
     cpu_pct = 100.0 * (time.process_time() - start_cpu) / (time.monotonic() - start)
     with open(args.out, "w") as f:
         json.dump({"cpu_pct": cpu_pct, "rate_hz": seq / (time.monotonic() - start), "sends": sends}, f)

@@ -39,6 +39,7 @@ os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 from g1_mode_manager.protocol import api_ids  # noqa: E402
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES  # noqa: E402
 from harness.mode_manager import RosClient, start_mode_manager, wait_until  # noqa: E402
+from harness.rate import run_at_rate  # noqa: E402
 from harness.sim_bridge import shared_sim_status, start_sim_bridge  # noqa: E402
 from harness.sim_record import is_damp, requests, velocity_of  # noqa: E402
 
@@ -185,23 +186,19 @@ class Flood:
         self.sent = 0
         self._stop = threading.Event()
         self._pubs = [bench.publisher(Twist, "/cmd_vel", k) for k in (1, 2)]
-        self._period = 1.0 / rate_hz
+        self._rate_hz = rate_hz
         self._threads = [threading.Thread(target=self._run, args=(p,), daemon=True) for p in self._pubs]
         self._msg_type = Twist
 
     def _run(self, pub) -> None:
         msg = self._msg_type()
-        next_t = time.monotonic()
-        while not self._stop.is_set():
+
+        def publish() -> None:
             msg.linear.x = self.vx
             pub.publish(msg)
             self.sent += 1
-            next_t += self._period
-            delay = next_t - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            else:
-                next_t = time.monotonic()
+
+        run_at_rate(self._rate_hz, publish, self._stop)
 
     def __enter__(self) -> Flood:
         self.started = time.monotonic()

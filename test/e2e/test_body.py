@@ -21,6 +21,7 @@ from sensor_msgs.msg import JointState
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from g1_sim.physics.model import DEFAULT_POSE
+from harness.rate import run_at_rate
 from support.mode_manager import wait_until
 from support.sim_record import damped, is_damp, of_kind, requests, states, velocity_of
 from support.timing import (
@@ -58,17 +59,13 @@ class Controller:
         self._pub = stack.ros.node.create_publisher(JointCommand, stack.name("lowcmd"), 10)
         assert wait_until(lambda: self._pub.get_subscription_count() > 0, 10.0)
         self.msg = _stand_command()
-        self._period = 1.0 / rate_hz
+        self._rate_hz = rate_hz
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True)
         self._thread.start()
 
     def _run(self) -> None:
-        next_t = time.monotonic()
-        while not self._stop.is_set():
-            self._pub.publish(self.msg)
-            next_t += self._period
-            self._stop.wait(max(0.0, next_t - time.monotonic()))
+        run_at_rate(self._rate_hz, lambda: self._pub.publish(self.msg), self._stop)
 
     def stop(self) -> None:
         self._stop.set()

@@ -21,6 +21,7 @@ from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import USER_CTRL_FSM_ID
 from g1_mode_manager.protocol.motors import JOINT_NAMES
+from harness.rate import run_at_rate
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
 from support.timing import CONTROLLER_STALL_S
@@ -43,7 +44,7 @@ class HoldController:
         self._latest: dict[str, float] = {}
         node.create_subscription(JointState, "/joint_states", self._on_joint_states, 10)
         assert wait_until(lambda: self._pub.get_subscription_count() > 0 and len(self._latest) == 29, 15.0)
-        self._period = 1.0 / rate_hz
+        self._rate_hz = rate_hz
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.sent = 0
@@ -59,19 +60,15 @@ class HoldController:
         self._thread.start()
 
     def _run(self, msg: JointCommand) -> None:
-        next_at = time.monotonic()
-        while not self._stop.is_set():
+        def publish() -> bool:
             try:
                 self._pub.publish(msg)
             except Exception:  # the test's client closed under a controller left running: it is dead
-                return
+                return False
             self.sent += 1
-            next_at += self._period
-            delay = next_at - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            else:
-                next_at = time.monotonic()
+            return True
+
+        run_at_rate(self._rate_hz, publish, self._stop)
 
     def stop(self) -> float:
         """Stop publishing (a killed controller); returns when."""

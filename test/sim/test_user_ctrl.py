@@ -34,6 +34,7 @@ from g1_sim.firmware.user_ctrl import (
     internal_target,
     switch_in_verdict,
 )
+from harness.rate import run_at_rate
 from support.sdk_calls import call, initialised
 from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
 from support.sim_record import SimRecord, of_kind, requests, states
@@ -351,12 +352,11 @@ class FrameStream:
         self.sent = 0
 
     def _run(self) -> None:
-        next_t = time.monotonic()
-        while not self._stop.is_set():
+        def write() -> None:
             self._publisher.Write(self._msg)
             self.sent += 1
-            next_t += self.PERIOD_S
-            time.sleep(max(0.0, next_t - time.monotonic()))
+
+        run_at_rate(1.0 / self.PERIOD_S, write, self._stop)
 
     def __enter__(self) -> FrameStream:
         self._thread.start()
