@@ -16,7 +16,6 @@ from g1_mode_manager_msgs.msg import SportModeState
 from rclpy.duration import Duration
 from rclpy.node import Node
 
-from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.node.diagnostics import build_diagnostics, walk_status
 from g1_mode_manager.node.odometry import OdometryPublisher
@@ -82,14 +81,6 @@ class StatePublishers:
             self._published_version = status.version
             self._publish_mode_locked(status)
 
-    def _path_note(self, status: MachineStatus) -> list[str]:
-        """~/mode says which path LOW_LEVEL takes while it is, or is about to be, in it (the Mode message has no
-        field of its own for it; warnings is the list every client already shows)."""
-        target = status.transition_target if status.transition_in_progress else status.mode
-        if Mode.LOW_LEVEL not in (status.mode, target):
-            return []
-        return [f"low_level_path: {self._parts.machine.low_level_path.value}"]
-
     def _publish_mode_locked(self, status: MachineStatus) -> None:
         self._mode_pub.publish(ModeMsg(
             stamp=self._node.get_clock().now().to_msg(),
@@ -101,13 +92,14 @@ class StatePublishers:
             high_level_service_active=status.service_active,
             damp_confirmed=status.damp_confirmed,
             link_ok=self._parts.link.link_ok(status.mode),
+            low_level_path=self._parts.machine.low_level_path.value,
             last_refusal=status.last_refusal,
             last_error=status.last_error,
             robot_mismatch=status.robot_mismatch,
             reasserts=status.reasserts,
             faults=list(status.faults),
             holds=list(status.holds),
-            warnings=[*self._parts.body.monitor.warnings(), *self._walk_warning(), *self._path_note(status)],
+            warnings=[*self._parts.body.monitor.warnings(), *self._walk_warning()],
         ))
 
     def _walk_warning(self) -> list[str]:

@@ -93,6 +93,21 @@ def test_set_mode_by_name_case_insensitive_and_mode_is_latched(harness) -> None:
     assert got[-1].name == "HIGH_LEVEL" and got[-1].high_level_service_active
 
 
+@pytest.mark.parametrize("path", ["release", "user_ctrl"])
+def test_mode_says_which_way_low_level_takes_in_every_mode(path: str) -> None:
+    h = Harness(FakeRobotPort(), low_level_path=path)
+    try:
+        got: list[Mode] = []
+        h.client.create_subscription(Mode, "/g1_mode_manager/mode", got.append, MODE_QOS)
+        assert wait_until(lambda: bool(got)) and got[-1].name == "UNINITIALIZED"
+        assert h.set_mode("idle").success
+        assert wait_until(lambda: got[-1].name == "IDLE")
+        assert {m.low_level_path for m in got} == {path}
+        assert not any("low_level_path" in w for m in got for w in m.warnings)  # a field of its own, not a warning
+    finally:
+        h.close()
+
+
 def test_cmd_vel_reaches_the_port_only_in_high_level(harness) -> None:
     pub = harness.client.create_publisher(Twist, "/cmd_vel", 10)
     msg = Twist()
