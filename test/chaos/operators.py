@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
 from typing import Any
 
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
@@ -29,17 +28,16 @@ class Operators:
     """Runs a plan's actions against ``stack``; ``row_reached`` starts a stream column, ``send_column`` sends a
     request column."""
 
-    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event,
-                 renew_latched: Callable[[], None] = lambda: None) -> None:
-        """``renew_latched()``: before the setup, replaces a node the noise left in EMERGENCY (latched for the
-        node's life) with a fresh one, so that the aimed row can still be reached."""
+    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event) -> None:
         self._stack = stack
-        self._renew_latched = renew_latched
         self._plan = p
         self._in_flight = in_flight
         self._stop = stop
         self.row_reached = threading.Event()
         self.node_back = threading.Event()  # the node was restarted (or never killed)
+        #: the noise is over and the node the setup talks to is settled: the e-stop's thread replaced one the noise
+        #: left in EMERGENCY (scenario_run), so the setup never sends to a node being stopped
+        self.node_checked = threading.Event()
         self.mode_calls: list[float] = []  # when each mode request began (list.append is atomic)
         if p.kill_at is None:
             self.node_back.set()
@@ -78,10 +76,9 @@ class Operators:
         """Before the setup: wait for the restarted node, then undo the noise's body faults and clear them."""
         if self._stop.wait(max(0.0, t0 + self._plan.setup_at - time.monotonic())):
             return False
-        while not self.node_back.wait(0.1):
+        while not (self.node_back.wait(0.1) and self.node_checked.wait(0.1)):
             if self._stop.is_set():
                 return False
-        self._renew_latched()
         if fault_claimed():
             self._clear(fault_claimed)
         return True

@@ -54,7 +54,7 @@ class ScenarioRun:
         estop_pub = self.ends.estop_pubs.get(p.estop_via)
         stop = threading.Event()
         in_flight = InFlight()
-        ops = Operators(stack, p, in_flight, stop, renew_latched=lambda: self._renew_latched(claims))
+        ops = Operators(stack, p, in_flight, stop)
         try:
             stack.sim.reset()
             stack.ros.wait_node_answers(f"{stack.ns}/g1_mode_manager")
@@ -124,6 +124,11 @@ class ScenarioRun:
         deadline = max(t0 + p.setup_at, time.monotonic()) + AIM_DEADLINE_S
         sent = False
         while time.monotonic() < deadline:
+            if not ops.node_checked.is_set() and time.monotonic() >= t0 + p.setup_at and ops.node_back.is_set():
+                # here, in the thread that sends the e-stop, so that it never goes to a node being replaced
+                if self._renew_latched(claims):
+                    deadline = max(deadline, time.monotonic() + AIM_DEADLINE_S)
+                ops.node_checked.set()
             if _row(claims) == row:
                 ops.row_reached.set()
                 if column in in_flight.columns():
@@ -133,6 +138,7 @@ class ScenarioRun:
                     if sent:
                         continue  # the e-stop goes out now if the request is still unanswered
             in_flight.wait(0.002)
+        ops.node_checked.set()  # the row was reached during the noise: the setup goes on with this node
         if column in ("nothing", "stream"):  # somewhere inside it, not only at its start
             time.sleep(rng.uniform(0.0, 0.3))
         return self._landing(claims, in_flight)
@@ -180,14 +186,14 @@ class ScenarioRun:
         finally:
             ops.node_back.set()
 
-    def _renew_latched(self, claims: Claims) -> None:
+    def _renew_latched(self, claims: Claims) -> bool:
         """A node the noise left in EMERGENCY (the remote's L2+B, most often) is stopped by SIGINT and a fresh one
         started in its place, as after a SIGKILL: judged as a restart (it forwards nothing before it is asked for a
         mode), and its exit as any other."""
         with claims.lock:
             last = claims.modes[-1][1] if claims.modes else None
         if last is None or last.mode != Mode.EMERGENCY:
-            return
+            return False
         old = self.stack.node
         t_stop = time.monotonic()
         code = old.stop()
@@ -198,6 +204,10 @@ class ScenarioRun:
         self.renewed = True
         self.stack.node = self._restart()
         self.stack.ros.wait_node_answers(f"{self.stack.ns}/g1_mode_manager")
+        assert self.ends.estop_client.wait_for_service(timeout_sec=10.0)
+        pub = self.ends.estop_pubs.get(self.plan.estop_via)
+        assert pub is None or wait_until(lambda: pub.get_subscription_count() >= 1, 10.0)
+        return True
 
     def _diagnosis(self) -> str:
         """Which side is stuck when the node does not answer: the node (dead, or alive with its services in the
