@@ -51,10 +51,11 @@ class LocoCommands:
     commands still waiting for their outcome."""
 
     def __init__(self, port: RobotPort, gate: LocoGate, *, outcome_timeout_s: float = 3.0,
-                 motion_timeout_s: float = 6.0) -> None:
+                 motion_timeout_s: float = 6.0, get_up_timeout_s: float = 12.0) -> None:
         self._port = port
         self._gate = gate
-        self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s)
+        self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s,
+                                   get_up_timeout_s=get_up_timeout_s)
         self._lock = threading.Lock()
         self._waiting: set[Preemption] = set()
 

@@ -69,16 +69,20 @@ class OutcomeWatch:
     """Waits for one verb's outcome on ``port``; remembers the stand height extremes it verified."""
 
     def __init__(self, port: RobotPort, *, timeout_s: float, motion_timeout_s: float,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        if not timeout_s > 0 or not motion_timeout_s > 0:
+                 get_up_timeout_s: float | None = None, clock: Callable[[], float] = time.monotonic) -> None:
+        get_up_timeout_s = motion_timeout_s if get_up_timeout_s is None else get_up_timeout_s
+        if not timeout_s > 0 or not motion_timeout_s > 0 or not get_up_timeout_s > 0:
             raise ValueError("outcome timeouts must be > 0")
         self._port = port
         self.timeout_s = float(timeout_s)
         self.motion_timeout_s = float(motion_timeout_s)
+        self.get_up_timeout_s = float(get_up_timeout_s)
         self._clock = clock
         self._stand_extremes: dict[bool, float] = {}  # highest? -> the height a verified command left
 
     def limit_s(self, expected: Expected) -> float:
+        if isinstance(expected, FsmShown) and expected.get_up:
+            return self.get_up_timeout_s
         return self.motion_timeout_s if isinstance(expected, FsmShown) and expected.motion else self.timeout_s
 
     def before(self, expected: Expected) -> float | None:

@@ -50,6 +50,8 @@ POSTURE = [
     ("squat", 0, ("set_fsm_id", (2,))),
     ("sit", 0, ("set_fsm_id", (3,))),
     ("stand_up", 0, ("set_fsm_id", (4,))),
+    ("squat_to_stand", 0, ("set_fsm_id", (706,))),
+    ("stand_to_squat", 0, ("set_fsm_id", (706,))),
     ("start", 0, ("set_fsm_id", (500,))),
     ("balance_stand", 0, ("set_balance_mode", (0,))),
     ("continuous_gait", 1, ("set_balance_mode", (1,))),
@@ -169,3 +171,28 @@ def test_shake_hand_takes_only_its_two_stages() -> None:
     port = FakeRobotPort()
     result = run_loco_command(port, Gate(), "shake_hand", 2)
     assert not result.success and "value from 0 to 1" in result.message and port.sent == []
+
+
+def _damped_lying(port: FakeRobotPort) -> None:
+    port.sport = SportState(fsm_id=1, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
+
+
+def test_lie_to_stand_sends_702_and_is_answered_on_702_static() -> None:
+    port = FakeRobotPort()
+    _damped_lying(port)
+    result = LocoCommands(port, Gate(), outcome_timeout_s=0.2, motion_timeout_s=0.2,
+                          get_up_timeout_s=0.3).run("lie_to_stand", 0)
+    assert result.success and [(s.name, s.args) for s in port.sent] == [("set_fsm_id", (702,))], result.message
+    assert "the robot shows fsm 702 (fsm_mode 0)" in result.message
+
+
+def test_lie_to_stand_waits_the_get_up_timeout_for_its_outcome() -> None:
+    port = FakeRobotPort()
+    _damped_lying(port)
+    port.outcomes = False
+    started = time.monotonic()
+    result = LocoCommands(port, Gate(), outcome_timeout_s=0.1, motion_timeout_s=0.1,
+                          get_up_timeout_s=0.4).run("lie_to_stand", 0)
+    assert not result.success and result.message == (
+        "lie_to_stand: code 0, but the robot showed fsm 1 (fsm_mode 0) for 0.4 s"), result.message
+    assert time.monotonic() - started >= 0.4
