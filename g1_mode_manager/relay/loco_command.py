@@ -57,7 +57,7 @@ class LocoCommands:
         self._port = port
         self._gate = gate
         self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s,
-                                   get_up_timeout_s=get_up_timeout_s)
+                                   get_up_timeout_s=get_up_timeout_s, tilt=tilt)
         self._tilt = tilt
         self._lock = threading.Lock()
         self._waiting: set[Preemption] = set()

@@ -177,13 +177,23 @@ def _damped_lying(port: FakeRobotPort) -> None:
     port.sport = SportState(fsm_id=1, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
 
 
-def test_lie_to_stand_sends_702_damped_and_lying_and_is_answered_on_702_static() -> None:
+def test_lie_to_stand_sends_702_damped_and_lying_and_is_answered_on_702_static_with_the_robot_up() -> None:
     port = FakeRobotPort()
     _damped_lying(port)
+    tilts = iter([1.8] + [0.05] * 100)  # lying when asked, up once 702 shows
     result = LocoCommands(port, Gate(), outcome_timeout_s=0.2, motion_timeout_s=0.2, get_up_timeout_s=0.3,
-                          tilt=lambda: 1.8).run("lie_to_stand", 0)
+                          tilt=lambda: next(tilts)).run("lie_to_stand", 0)
     assert result.success and [(s.name, s.args) for s in port.sent] == [("set_fsm_id", (702,))], result.message
-    assert "the robot shows fsm 702 (fsm_mode 0)" in result.message
+    assert "the robot shows fsm 702 (fsm_mode 0), tilt 0.05 rad" in result.message
+
+
+def test_702_static_with_the_robot_still_on_the_floor_is_not_a_get_up() -> None:
+    port = FakeRobotPort()
+    _damped_lying(port)
+    result = LocoCommands(port, Gate(), outcome_timeout_s=0.1, motion_timeout_s=0.1, get_up_timeout_s=0.3,
+                          tilt=lambda: 1.8).run("lie_to_stand", 0)
+    assert not result.success and result.message == (
+        "lie_to_stand: code 0, but the robot showed fsm 702 (fsm_mode 0), tilt 1.80 rad for 0.3 s"), result.message
 
 
 def test_lie_to_stand_waits_the_get_up_timeout_for_its_outcome() -> None:
@@ -194,7 +204,7 @@ def test_lie_to_stand_waits_the_get_up_timeout_for_its_outcome() -> None:
     result = LocoCommands(port, Gate(), outcome_timeout_s=0.1, motion_timeout_s=0.1, get_up_timeout_s=0.4,
                           tilt=lambda: 1.8).run("lie_to_stand", 0)
     assert not result.success and result.message == (
-        "lie_to_stand: code 0, but the robot showed fsm 1 (fsm_mode 0) for 0.4 s"), result.message
+        "lie_to_stand: code 0, but the robot showed fsm 1 (fsm_mode 0), tilt 1.80 rad for 0.4 s"), result.message
     assert time.monotonic() - started >= 0.4
 
 
