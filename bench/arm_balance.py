@@ -87,8 +87,8 @@ def enter(sim: SimG1, case: Case) -> None:
     """Bring a freshly booted sim (lock stand) into the case's fsm and command, then let it settle."""
     steps = round(1.0 / sim.dt)
     if case.fsm == FsmId.SQUAT_TO_STAND:
-        assert sim.set_fsm_id(FsmId.DAMP) == OK
-        sim.step(round(2.0 / sim.dt))
+        assert sim.set_fsm_id(FsmId.SQUAT) == OK  # from a squat: damped, the robot would lie, and 706 not lift it
+        sim.step(round(3.0 / sim.dt))
         assert sim.set_fsm_id(FsmId.SQUAT_TO_STAND) == OK
         while not sim.standing_balanced:
             sim.step(steps // 10)

@@ -40,12 +40,13 @@ def sdk_channels(sdk_domain: int) -> int:
 
 #: The slowest files, slowest first (as measured with --durations=0 in a 3-worker run; figures in
 #: docs/figures.md); then every other file of these folders, then the rest.
-_SLOWEST_FIRST = ("test/chaos/test_chaos_second_half.py", "test/chaos/test_chaos.py", "test/e2e/test_end_to_end.py",
+_SLOWEST_FIRST = ("test/chaos/test_chaos_second_half.py", "test/chaos/test_chaos.py", "test/e2e/test_user_ctrl.py",
+                  "test/e2e/test_end_to_end.py",
                   "test/e2e/test_console_browser.py", "test/e2e/test_streams.py", "test/sim/test_bridge.py",
                   "test/e2e/test_estop_truth.py", "test/e2e/test_body.py", "test/packaging/test_colcon_build.py",
                   "test/core/test_machine_properties.py", "test/e2e/test_loco_outcome.py", "test/e2e/test_odometry.py",
                   "test/sdk/test_unitree_robot.py", "test/e2e/test_two_robots.py", "test/sim/test_robot_topics.py",
-                  "test/console/test_console_process.py")
+                  "test/console/test_console_process.py", "test/e2e/test_user_ctrl_estop_steps.py", "test/e2e/test_getup.py")
 _HEAVY_FOLDERS = ("test/e2e/", "test/sim/", "test/chaos/", "test/packaging/")
 
 

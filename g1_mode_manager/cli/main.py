@@ -34,6 +34,8 @@ def main(argv: list[str] | None = None) -> int:
     ranges = ", ".join(f"{name} {v.values.start}..{v.values.stop - 1}" for name, v in LOCO_VERBS.items() if v.values)
     p.add_argument("value", nargs="?", type=int, default=0,
                    help=f"{ranges} (shake_hand 0 holds the hand out, 1 withdraws it)")
+    sub.add_parser("recover", help="a fallen robot up again: damp, lie_to_stand, balance_stand, each verified "
+                                   "on the robot (HIGH_LEVEL; an e-stop ends it)")
     sub.add_parser("drive", help="keyboard teleop on <namespace of --manager>/cmd_vel")
     args = parser.parse_args(argv)
 
@@ -75,6 +77,15 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         outcome = f" outcome after {r.outcome_s:.2f} s" if r.outcome_s >= 0.0 else ""
         print(f"success={r.success} code={r.code}{outcome}: {r.message}")
         return 0 if r.success else 1
+    if args.cmd == "recover":
+        from g1_mode_manager.cli.recover import recover
+
+        results = recover(lambda step: client.loco(step))
+        for r in results:
+            print(f"{r.step}: success={r.success} after {r.took_s:.2f} s: {r.message}", flush=True)
+        failed = [r for r in results if not r.success]
+        print(f"recover: failed at {failed[0].step}" if failed else "recover: the robot stands")
+        return 1 if failed else 0
     from g1_mode_manager.cli.keyboard import run_keyboard
 
     return run_keyboard(client)

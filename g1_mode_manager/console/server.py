@@ -36,8 +36,8 @@ from g1_mode_manager.console.teleop import Teleop
 #: above max_message_bytes are refused one by one and the socket stays open.
 FRAME_CAP_BYTES = 64 * 1024
 #: How long a service answer may take before the page is told it timed out (s): the e-stop's bound is
-#: estop_timeout_s (10 s) plus one call; a posture motion's answer waits up to loco_motion_timeout_s (6 s).
-ANSWER_TIMEOUT_S = {"estop": 15.0, "set_mode": 30.0, "loco": 15.0, "clear_fault": 5.0}
+#: estop_timeout_s (10 s) plus one call; a get-up's answer waits up to loco_get_up_timeout_s (12 s).
+ANSWER_TIMEOUT_S = {"estop": 15.0, "set_mode": 30.0, "loco": 20.0, "clear_fault": 5.0}
 #: Refusals a page is told about per second (all are counted).
 REFUSAL_REPLIES_PER_S = 5.0
 #: The heartbeat period the page is asked to keep (s): a third of the default deadline.

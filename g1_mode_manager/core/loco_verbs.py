@@ -24,10 +24,12 @@ FLAG: Final = range(2)
 @dataclass(frozen=True)
 class FsmShown:
     """rt/sportmodestate shows ``fsm_id``. ``motion``: the verb starts a posture motion of seconds (stand up,
-    squat, sit): done once it stopped (fsm_mode 0), judged against the longer motion timeout."""
+    squat, sit): done once it stopped (fsm_mode 0), judged against the longer motion timeout. ``get_up``: the
+    motion is a get-up from the floor, judged against the get-up timeout (longer still)."""
 
     fsm_id: int
     motion: bool = False
+    get_up: bool = False
 
 
 @dataclass(frozen=True)
@@ -72,8 +74,9 @@ class LocoVerb:
     values: range | None = None
 
 
-def _fsm(fsm_id: FsmId, *, motion: bool = False) -> LocoVerb:
-    return LocoVerb(lambda port, _value: port.set_fsm_id(int(fsm_id)), lambda _value: FsmShown(int(fsm_id), motion))
+def _fsm(fsm_id: FsmId, *, motion: bool = False, get_up: bool = False) -> LocoVerb:
+    return LocoVerb(lambda port, _value: port.set_fsm_id(int(fsm_id)),
+                    lambda _value: FsmShown(int(fsm_id), motion or get_up, get_up))
 
 
 def _balance_mode(continuous: int) -> int:
@@ -98,6 +101,11 @@ LOCO_VERBS: Final[Mapping[str, LocoVerb]] = {
     "squat": _fsm(FsmId.SQUAT, motion=True),
     "sit": _fsm(FsmId.SIT, motion=True),
     "stand_up": _fsm(FsmId.STAND_UP, motion=True),
+    # Unitree's Lie2StandUp: from damping, the robot lying on the floor (guarded: core/posture_guards.py)
+    "lie_to_stand": _fsm(FsmId.LIE_TO_STAND, get_up=True),
+    # Squat2StandUp and StandUp2Squat send the same id: the robot's posture decides which way it goes
+    "squat_to_stand": _fsm(FsmId.SQUAT_TO_STAND, motion=True),
+    "stand_to_squat": _fsm(FsmId.SQUAT_TO_STAND, motion=True),
     "start": _fsm(FsmId.START),
     "balance_stand": LocoVerb(lambda port, _value: _balance(port, 0), lambda _value: BalanceShown(_balance_mode(0))),
     "continuous_gait": LocoVerb(_balance, lambda value: BalanceShown(_balance_mode(value)), FLAG),

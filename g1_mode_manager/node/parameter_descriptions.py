@@ -19,6 +19,8 @@ DESCRIPTIONS: dict[str, str] = {
     "(fsm id, balance mode, stand height, arm task); it waits at most this long for it, s.",
     "loco_motion_timeout_s": "The same for stand_up, squat and sit, which start a posture motion of seconds: "
     "answered when the motion finished (fsm_mode 0), s.",
+    "loco_get_up_timeout_s": "The same for lie_to_stand, the get-up from the floor (702): answered when the robot "
+    "stands balanced (fsm 702, fsm_mode 0); the robot's time is not documented, the sim's about 6 s, s.",
     "not_walking_after_s": "Moves acknowledged for this long while the robot's odometry shows it not walking "
     "(below a fifth of the command) -> a WARN on /diagnostics and in ~/mode, s.",
     "odom_rate_hz": "Publish odom (nav_msgs/Odometry) and the odom -> child frame TF from the robot's "

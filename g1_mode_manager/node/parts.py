@@ -77,7 +77,8 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
     body = BodySupervision(port, machine, events, s, on_error)
     lowcmd = _lowcmd_relay(s, port, machine, link, events, deadman=body.watch.deadman_held)
     loco = LocoCommands(port, machine, outcome_timeout_s=s.loco_outcome_timeout_s,
-                        motion_timeout_s=s.loco_motion_timeout_s)
+                        motion_timeout_s=s.loco_motion_timeout_s, get_up_timeout_s=s.loco_get_up_timeout_s,
+                        tilt=lambda: body.watch.readings.tilt_rad)
     # lowcmd first: its damping frames are the urgent ones; loco last: it only wakes waiting answers
     for relay in (lowcmd, arm, cmd_vel, loco):
         machine.add_leave_listener(relay.on_leave)

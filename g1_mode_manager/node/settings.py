@@ -55,6 +55,7 @@ class Settings:
     diagnostics_rate_hz: float = 1.0
     loco_outcome_timeout_s: float = 3.0
     loco_motion_timeout_s: float = 6.0
+    loco_get_up_timeout_s: float = 12.0
     odom_rate_hz: float = 0.0
     odom_frame_id: str = "odom"
     odom_child_frame_id: str = "pelvis"

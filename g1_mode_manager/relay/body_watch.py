@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
-from g1_mode_manager.core.body.checks import UPRIGHT_FSM_IDS, Reaction
+from g1_mode_manager.core.body.checks import Reaction, holds_upright
 from g1_mode_manager.core.body.monitor import BodyMonitor
 from g1_mode_manager.core.body.readings import BodyReadings, readings_of
 from g1_mode_manager.core.events import RelayEvents
@@ -109,7 +109,7 @@ class BodyWatch:
         if status.mode not in (Mode.IDLE, Mode.HIGH_LEVEL) or (status.service_known and not status.service_active):
             return False
         sport = self._port.sport_state()
-        return sport is not None and sport.age_s <= SPORT_FRESH_S and sport.fsm_id in UPRIGHT_FSM_IDS
+        return sport is not None and sport.age_s <= SPORT_FRESH_S and holds_upright(sport.fsm_id, sport.fsm_mode)
 
     def _remote_estop(self, status: MachineStatus, now: float) -> None:
         if not self._estop_keys:

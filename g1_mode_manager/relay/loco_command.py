@@ -17,6 +17,7 @@ from g1_mode_manager.core import modes
 from g1_mode_manager.core.loco_verbs import LOCO_VERBS
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
+from g1_mode_manager.core.posture_guards import posture_refusal
 from g1_mode_manager.protocol.fsm import FsmMode
 from g1_mode_manager.relay.loco_outcome import OutcomeWatch, Preemption, Seen
 
@@ -51,10 +52,13 @@ class LocoCommands:
     commands still waiting for their outcome."""
 
     def __init__(self, port: RobotPort, gate: LocoGate, *, outcome_timeout_s: float = 3.0,
-                 motion_timeout_s: float = 6.0) -> None:
+                 motion_timeout_s: float = 6.0, get_up_timeout_s: float = 12.0,
+                 tilt: Callable[[], float | None] = lambda: None) -> None:
         self._port = port
         self._gate = gate
-        self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s)
+        self._watch = OutcomeWatch(port, timeout_s=outcome_timeout_s, motion_timeout_s=motion_timeout_s,
+                                   get_up_timeout_s=get_up_timeout_s, tilt=tilt)
+        self._tilt = tilt
         self._lock = threading.Lock()
         self._waiting: set[Preemption] = set()
 
@@ -72,19 +76,20 @@ class LocoCommands:
         with self._lock:  # registered before the send: a mode change from here on preempts the wait
             self._waiting.add(preemption)
         try:
-            return run_loco_command(self._port, self._gate, command, value, self._watch, preemption)
+            return run_loco_command(self._port, self._gate, command, value, self._watch, preemption, self._tilt)
         finally:
             with self._lock:
                 self._waiting.discard(preemption)
 
 
 def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int, watch: OutcomeWatch,
-                     preemption: Preemption) -> LocoResult:
+                     preemption: Preemption, tilt: Callable[[], float | None] = lambda: None) -> LocoResult:
     """Check the command against the mode and the robot's state, send it, then wait for its outcome.
 
     Damping is allowed wherever the sport service can answer (every connected mode but LOW_LEVEL);
     everything else only in HIGH_LEVEL (with no transition in flight) and only while the robot is
-    static (fsm_mode 0), as the robot itself would refuse most switches while dynamic. The mode check
+    static (fsm_mode 0), as the robot itself would refuse most switches while dynamic, and only where the
+    robot's body allows the verb (``tilt``: the body watch's attitude; core/posture_guards.py). The mode check
     and the send are one ``robot_call``: an e-stop that begins meanwhile refuses it, or waits for it to
     land and then re-damps. The outcome wait comes after, outside the gate, so it never delays an e-stop;
     ``success`` only once the robot showed the outcome (code 0 alone is not enough).
@@ -111,6 +116,9 @@ def run_loco_command(port: RobotPort, gate: LocoGate, command: str, value: int, 
             return LocoResult(False, "no rt/sportmodestate received: the robot's state is unknown")
         if state.fsm_mode == FsmMode.DYNAMIC:
             return LocoResult(False, "the robot is dynamic (fsm_mode 1): only damp is allowed; stop it first")
+        refusal = posture_refusal(name, state.fsm_id, tilt())
+        if refusal is not None:
+            return LocoResult(False, refusal)
     expected = verb.expect(value)
     before = watch.before(expected)
     with gate.robot_call(_damp_allowed if name == "damp" else modes.allows_loco_commands) as allowed:

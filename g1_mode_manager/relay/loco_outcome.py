@@ -23,6 +23,7 @@ from g1_mode_manager.core.loco_verbs import (
     TaskShown,
 )
 from g1_mode_manager.core.port import RobotError, RobotPort, SportState
+from g1_mode_manager.core.posture_guards import lying
 from g1_mode_manager.protocol.fsm import FsmMode
 
 #: How often rt/sportmodestate is looked at (it arrives at 50 Hz), and how often a getter is asked (an RPC).
@@ -69,16 +70,22 @@ class OutcomeWatch:
     """Waits for one verb's outcome on ``port``; remembers the stand height extremes it verified."""
 
     def __init__(self, port: RobotPort, *, timeout_s: float, motion_timeout_s: float,
+                 get_up_timeout_s: float | None = None, tilt: Callable[[], float | None] = lambda: None,
                  clock: Callable[[], float] = time.monotonic) -> None:
-        if not timeout_s > 0 or not motion_timeout_s > 0:
+        get_up_timeout_s = motion_timeout_s if get_up_timeout_s is None else get_up_timeout_s
+        if not timeout_s > 0 or not motion_timeout_s > 0 or not get_up_timeout_s > 0:
             raise ValueError("outcome timeouts must be > 0")
         self._port = port
         self.timeout_s = float(timeout_s)
         self.motion_timeout_s = float(motion_timeout_s)
+        self.get_up_timeout_s = float(get_up_timeout_s)
+        self._tilt = tilt  # the body watch's attitude: a get-up is done only with the robot off the floor
         self._clock = clock
         self._stand_extremes: dict[bool, float] = {}  # highest? -> the height a verified command left
 
     def limit_s(self, expected: Expected) -> float:
+        if isinstance(expected, FsmShown) and expected.get_up:
+            return self.get_up_timeout_s
         return self.motion_timeout_s if isinstance(expected, FsmShown) and expected.motion else self.timeout_s
 
     def before(self, expected: Expected) -> float | None:
@@ -124,7 +131,14 @@ class OutcomeWatch:
                 # while the robot still steps shows fsm 500 with fsm_mode 1, and that is its outcome)
                 ok = state.fsm_id == fsm_id and (state.fsm_mode == FsmMode.STATIC or not expected.motion)
                 moving = ", still moving" if state.fsm_mode == FsmMode.DYNAMIC else ""
-                return ok, f"fsm {state.fsm_id} (fsm_mode {state.fsm_mode}{moving})"
+                shown = f"fsm {state.fsm_id} (fsm_mode {state.fsm_mode}{moving})"
+                if not expected.get_up:
+                    return ok, shown
+                # the fsm alone does not say the robot is up: it must no longer lie (a firmware that shows 702
+                # static on a robot still on the floor has not got it up)
+                tilt = self._tilt()
+                up = tilt is not None and not lying(tilt)
+                return ok and up, shown + (", attitude unknown" if tilt is None else f", tilt {tilt:.2f} rad")
             case TaskShown(task_id=task_id):
                 state = self._fresh_state(sent_at)
                 if state is None:

@@ -42,7 +42,7 @@ MAX_DELAY_S = 3.0
 #: A transition aimed at is kept in progress this long at least by delaying its calls, s.
 TRANSITION_DELAY_S = (1.0, 2.5)
 MODES = ("idle", "high_level", "low_level")
-LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand")
+LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand", "lie_to_stand", "damp")
 #: Noise actions, with their weights: mode requests, loco commands, /cmd_vel, arm and joint streams, a body
 #: fault made true in the sim, an operator's clear_fault.
 KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear")

@@ -94,8 +94,11 @@ def test_estop_during_a_slow_check_mode_ends_damped_on_the_robot(shared_stack_fa
 
 
 def test_a_loco_command_racing_the_estop_is_followed_by_a_redamp(shared_stack_factory) -> None:
-    """StandUp (accepted from Damp) takes 1.5 s inside the robot; the e-stop's Damps land first."""
-    stack = shared_stack_factory(node_params=("rpc_timeout_s:=3.0",))  # the StandUp's reply comes back in time
+    """StandUp (accepted from Damp) takes 1.5 s inside the robot; the e-stop's Damps land first. The robot hangs
+    in the gantry, as a G1 is stood up from damping: free, it would lie on the floor by the time the StandUp
+    lands, and a lying robot does not take it."""
+    stack = shared_stack_factory(node_params=("rpc_timeout_s:=3.0",),  # the StandUp's reply comes back in time
+                                 bridge_args=("--gantry",))
     assert stack.set_mode("high_level").success
     assert stack.loco("damp").success
     assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] == 1, 3.0)

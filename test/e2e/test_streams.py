@@ -167,16 +167,14 @@ def _weight_jumps(frames: list[dict]) -> list[tuple[float, float]]:
 
 
 def test_arm_weight_ramps_only_while_the_robot_stands_and_starts_from_zero(recorded) -> None:
-    # The body checks would end this in FAULT, rightly: damped, the robot falls onto its back, and lock stand
-    # (fsm 4) from there is a fall (tilt 1.9 rad); hung, the sim's stand-up spins the pelvis at ~15 rad/s.
-    # What is judged here is the arm relay, so they are off.
+    # What is judged here is the arm relay alone, so the body checks are off.
     stack, record = recorded("body_checks_enabled:=false")
     assert stack.set_mode("high_level").success
-    assert stack.loco("damp").success  # the robot sags, damped: it ignores arm_sdk
+    assert stack.loco("damp").success  # the robot falls onto its back, damped: it ignores arm_sdk
     publish = _arm_publisher(stack)
     with publishing(publish, 20.0):
         time.sleep(3.0)  # longer than the 2 s ramp
-        r = stack.loco("stand_up")
+        r = stack.loco("lie_to_stand")  # up from the floor: a stand_up would be refused, the robot lies
         assert r.success, r.message
         t_up = time.monotonic()
         assert wait_until(lambda: any(f["ok"] for f in _frames(record, "arm_sdk", t_up)), 10.0)

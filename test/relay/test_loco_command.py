@@ -50,6 +50,8 @@ POSTURE = [
     ("squat", 0, ("set_fsm_id", (2,))),
     ("sit", 0, ("set_fsm_id", (3,))),
     ("stand_up", 0, ("set_fsm_id", (4,))),
+    ("squat_to_stand", 0, ("set_fsm_id", (706,))),
+    ("stand_to_squat", 0, ("set_fsm_id", (706,))),
     ("start", 0, ("set_fsm_id", (500,))),
     ("balance_stand", 0, ("set_balance_mode", (0,))),
     ("continuous_gait", 1, ("set_balance_mode", (1,))),
@@ -169,3 +171,54 @@ def test_shake_hand_takes_only_its_two_stages() -> None:
     port = FakeRobotPort()
     result = run_loco_command(port, Gate(), "shake_hand", 2)
     assert not result.success and "value from 0 to 1" in result.message and port.sent == []
+
+
+def _damped_lying(port: FakeRobotPort) -> None:
+    port.sport = SportState(fsm_id=1, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
+
+
+def test_lie_to_stand_sends_702_damped_and_lying_and_is_answered_on_702_static_with_the_robot_up() -> None:
+    port = FakeRobotPort()
+    _damped_lying(port)
+    tilts = iter([1.8] + [0.05] * 100)  # lying when asked, up once 702 shows
+    result = LocoCommands(port, Gate(), outcome_timeout_s=0.2, motion_timeout_s=0.2, get_up_timeout_s=0.3,
+                          tilt=lambda: next(tilts)).run("lie_to_stand", 0)
+    assert result.success and [(s.name, s.args) for s in port.sent] == [("set_fsm_id", (702,))], result.message
+    assert "the robot shows fsm 702 (fsm_mode 0), tilt 0.05 rad" in result.message
+
+
+def test_702_static_with_the_robot_still_on_the_floor_is_not_a_get_up() -> None:
+    port = FakeRobotPort()
+    _damped_lying(port)
+    result = LocoCommands(port, Gate(), outcome_timeout_s=0.1, motion_timeout_s=0.1, get_up_timeout_s=0.3,
+                          tilt=lambda: 1.8).run("lie_to_stand", 0)
+    assert not result.success and result.message == (
+        "lie_to_stand: code 0, but the robot showed fsm 702 (fsm_mode 0), tilt 1.80 rad for 0.3 s"), result.message
+
+
+def test_lie_to_stand_waits_the_get_up_timeout_for_its_outcome() -> None:
+    port = FakeRobotPort()
+    _damped_lying(port)
+    port.outcomes = False
+    started = time.monotonic()
+    result = LocoCommands(port, Gate(), outcome_timeout_s=0.1, motion_timeout_s=0.1, get_up_timeout_s=0.4,
+                          tilt=lambda: 1.8).run("lie_to_stand", 0)
+    assert not result.success and result.message == (
+        "lie_to_stand: code 0, but the robot showed fsm 1 (fsm_mode 0), tilt 1.80 rad for 0.4 s"), result.message
+    assert time.monotonic() - started >= 0.4
+
+
+@pytest.mark.parametrize(("command", "fsm", "tilt", "words"), [
+    ("lie_to_stand", 4, 1.8, "damp first"),
+    ("lie_to_stand", 1, 0.1, "the robot is not lying"),
+    ("lie_to_stand", 1, None, "attitude is unknown"),
+    ("stand_up", 1, 1.8, "the robot lies on the floor (tilt 1.80 rad): damp, then lie_to_stand"),
+    ("squat_to_stand", 1, 1.8, "damp, then lie_to_stand"),
+])
+def test_posture_verbs_the_body_does_not_allow_are_refused_with_nothing_sent(command: str, fsm: int,
+                                                                              tilt: float | None, words: str) -> None:
+    port = FakeRobotPort()
+    port.sport = SportState(fsm_id=fsm, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
+    result = LocoCommands(port, Gate(), tilt=lambda: tilt).run(command, 0)
+    assert not result.success and result.code == -1 and words in result.message, result.message
+    assert port.sent == []

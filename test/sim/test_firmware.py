@@ -15,6 +15,7 @@ from g1_mode_manager.protocol.api_ids import (
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, VALID_FSM_IDS, WALKING_FSM_IDS, FsmId, FsmMode
 from g1_mode_manager.protocol.motors import NUM_JOINTS
 from g1_sim.firmware import rules
+from g1_sim.firmware.posture import Posture, posture_of
 
 # --- rule table (no physics) ---------------------------------------------------------------------
 
@@ -76,6 +77,49 @@ def test_dynamic_when_walking_with_command_or_moving_fast() -> None:
     assert not rules.is_dynamic(FsmId.STAND_UP, moving_command=False, speed_mps=0.5, yaw_rate=0.0,
                                 transition_running=False)
     assert rules.is_dynamic(FsmId.STAND_UP, moving_command=False, **{**kw, "transition_running": True})
+
+
+def test_lie_to_stand_only_from_damp() -> None:
+    assert rules.set_fsm_verdict(FsmId.DAMP, FsmId.LIE_TO_STAND, dynamic=False) == OK
+    for current in (FsmId.ZERO_TORQUE, FsmId.SQUAT, FsmId.SIT, *STANDING_FSM_IDS - {FsmId.LIE_TO_STAND}):
+        assert rules.set_fsm_verdict(current, FsmId.LIE_TO_STAND, dynamic=False) == ERR_REFUSED_IN_STATE, current
+
+
+@pytest.mark.parametrize("posture", list(Posture))
+def test_only_702_moves_a_lying_robot_and_702_moves_only_a_lying_one(posture: Posture) -> None:
+    assert rules.stays_as_it_is(FsmId.STAND_UP, posture) == posture.lying
+    assert rules.stays_as_it_is(FsmId.SQUAT_TO_STAND, posture) == posture.lying
+    assert rules.stays_as_it_is(FsmId.LIE_TO_STAND, posture) == (not posture.lying)
+    assert not rules.stays_as_it_is(FsmId.DAMP, posture)
+
+
+def test_706_squats_from_a_stand_and_stands_from_damp_squat_or_sit() -> None:
+    for current in STANDING_FSM_IDS:
+        assert rules.squats_down(current, FsmId.SQUAT_TO_STAND)
+    for current in (FsmId.DAMP, FsmId.SQUAT, FsmId.SIT):
+        assert not rules.squats_down(current, FsmId.SQUAT_TO_STAND)
+    assert not rules.squats_down(FsmId.STAND_UP, FsmId.STAND_UP)
+
+
+def test_a_706_squat_takes_only_damping_and_zero_torque() -> None:
+    for requested in VALID_FSM_IDS - {FsmId.DAMP, FsmId.ZERO_TORQUE, FsmId.SQUAT_TO_STAND}:
+        assert rules.set_fsm_verdict(FsmId.SQUAT_TO_STAND, requested, dynamic=False,
+                                     squatting=True) == ERR_REFUSED_IN_STATE, requested
+    for requested in (FsmId.DAMP, FsmId.ZERO_TORQUE):
+        assert rules.set_fsm_verdict(FsmId.SQUAT_TO_STAND, requested, dynamic=False, squatting=True) == OK
+
+
+def _quat_about_y(angle: float) -> np.ndarray:
+    return np.array([np.cos(angle / 2), 0.0, np.sin(angle / 2), 0.0])
+
+
+def test_posture_from_pelvis_height_and_tilt() -> None:
+    assert posture_of(0.75, _quat_about_y(0.0)) is Posture.UPRIGHT
+    assert posture_of(0.30, _quat_about_y(0.5)) is Posture.UPRIGHT  # sagging or squatting, on its feet
+    assert posture_of(0.60, _quat_about_y(1.5)) is Posture.UPRIGHT  # tipping, still high: not on the floor yet
+    assert posture_of(0.08, _quat_about_y(-1.6)) is Posture.ON_BACK  # pitched back: forward points up
+    assert posture_of(0.10, _quat_about_y(1.6)) is Posture.ON_FRONT
+    assert Posture.ON_BACK.lying and Posture.ON_FRONT.lying and not Posture.UPRIGHT.lying
 
 
 # --- SimG1 answers -------------------------------------------------------------------------------

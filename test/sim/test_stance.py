@@ -90,8 +90,8 @@ def test_reference_arm_sdk_while_walking_then_stop_and_lock_stand() -> None:
 
 def test_reference_arm_sdk_after_squat_to_stand() -> None:
     sim = SimG1()
-    assert sim.set_fsm_id(FsmId.DAMP) == OK
-    run(sim, 2.0)
+    assert sim.set_fsm_id(FsmId.SQUAT) == OK
+    run(sim, 3.0)
     assert sim.set_fsm_id(FsmId.SQUAT_TO_STAND) == OK
     run(sim, 4.0)
     assert sim.standing_balanced
@@ -105,8 +105,8 @@ def test_arms_overhead_in_lock_stand_and_the_stance_settles_after_arm_sdk_lets_g
     swinging when the weight reaches 0 (it used to tip over backwards ~1 s later)."""
     sim = SimG1()
     if fsm == FsmId.SQUAT_TO_STAND:
-        assert sim.set_fsm_id(FsmId.DAMP) == OK
-        run(sim, 2.0)
+        assert sim.set_fsm_id(FsmId.SQUAT) == OK
+        run(sim, 3.0)
         assert sim.set_fsm_id(FsmId.SQUAT_TO_STAND) == OK
         run(sim, 4.0)
         assert sim.standing_balanced

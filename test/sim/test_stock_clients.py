@@ -91,3 +91,28 @@ def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_chan
     assert [s["svc"] for s in last][:1] == [""] and (last[-1]["fsm"], last[-1]["svc"]) == (1, "ai"), last
     time.sleep(0.2)
     assert status.get()["sport"]["fsm_id"] == 1
+
+
+def test_unitree_loco_example_posture_options_behave_as_documented(sdk_channels: int, sim_bridge_factory,  # noqa: F811
+                                                                    tmp_path) -> None:
+    """The G1 loco example's Lie2StandUp (the robot on its back, after a Damp) gets the robot up; a StandUp of
+    the lying robot answers 0 and leaves it down; StandUp2Squat squats a standing robot (fsm 706)."""
+    path = tmp_path / "robot.jsonl"
+    sim_bridge_factory(speed=1.0, extra_args=("--record", str(path)))
+    status = shared_sim_status()
+    status.wait_ready()
+    lines = _run_stock_client(sys.executable, sdk_channels, "--type-fix", "getup", "walk", "stand", "squat")
+    getup = _step(lines, "getup")
+    assert (getup["stand_up_code"], getup["after_stand_up"]) == (0, 1), getup  # answered 0, stayed damped
+    assert (getup["static"], getup["fsm"]) == (0, 702), getup
+    record = SimRecord(path)
+    seen = states(record.events(since=_step(lines, "connected")["t"]))
+    fsms = [s["fsm"] for s in seen if s["t"] <= getup["t"]]
+    assert 4 not in fsms and fsms[-1] == 702, fsms  # the StandUp never reached the controller's state
+    walked = [s["fsm"] for s in seen if getup["t"] < s["t"] <= _step(lines, "walk")["t"]]
+    assert 200 in walked, walked  # Start from the stand 702 left
+    squat = _step(lines, "squat")
+    assert (squat["static"], squat["fsm"]) == (0, 706), squat
+    s = status.get()
+    assert s["body"]["pelvis_z"] < 0.65 and s["body"]["posture"] == "upright", s["body"]
+    assert s["firmware"].get("posture_ignored") == 1, s["firmware"]

@@ -7,7 +7,8 @@ Cyclone (11: multicast on lo; 0.10: unicast), and uses only the SDK's classes: `
 ``MotionSwitcherClient``, ``ChannelPublisher``/``ChannelSubscriber`` and ``CRC``. With ``--type-fix`` (needed
 on cyclonedds 11 to match a robot) it describes uint8/int8 as Cyclone 0.10 does before the first topic.
 
-Steps, in the order given: ``stand`` (Damp, StandUp until static), ``walk`` (Start, Move 0.5 m/s for
+Steps, in the order given: ``stand`` (Damp, StandUp until static), ``getup`` (Damp, the robot falls;
+StandUp, then Lie2StandUp until static), ``squat`` (StandUp2Squat until static), ``walk`` (Start, Move 0.5 m/s for
 2.5 s, StopMove), ``arm`` (rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``arm7``
 (rt/arm_sdk the way Unitree's C++ ``g1_arm7_sdk_dds_example.cpp`` writes it: no CRC, the weight 1 at once,
 the left shoulder pitch ramped at 0.5 rad/s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then
@@ -60,6 +61,34 @@ def stand(loco: Any) -> None:
     time.sleep(0.3)
     code = loco.SetFsmId(4)
     emit("stand", code=code, static=wait_static(loco))
+
+
+def fsm_id(loco: Any) -> int:
+    """GetFsmId (7001), which this SDK's LocoClient lacks: through its generic call."""
+    code, data = loco._Call(7001, "{}")
+    return json.loads(data)["data"] if code == 0 and data else -1
+
+
+def getup(loco: Any) -> None:
+    """The G1 loco example's Lie2StandUp option, as its comment asks (the robot on its back): Damp, wait
+    until the robot lies, then Lie2StandUp; a StandUp (SetFsmId 4: this SDK has no StandUp) tried first shows
+    what the lying robot does with it."""
+    loco.Damp()
+    time.sleep(2.5)
+    stand_up_code = loco.SetFsmId(4)
+    time.sleep(2.0)
+    after_stand_up = fsm_id(loco)
+    loco.Lie2StandUp()
+    time.sleep(0.3)
+    emit("getup", stand_up_code=stand_up_code, after_stand_up=after_stand_up, static=wait_static(loco),
+         fsm=fsm_id(loco))
+
+
+def squat(loco: Any) -> None:
+    """The example's StandUp2Squat option, from standing."""
+    loco.StandUp2Squat()
+    time.sleep(0.3)
+    emit("squat", static=wait_static(loco), fsm=fsm_id(loco))
 
 
 def walk(loco: Any) -> None:
@@ -179,6 +208,10 @@ def main(argv: list[str]) -> int:
             stand(loco)
         elif step == "walk":
             walk(loco)
+        elif step == "getup":
+            getup(loco)
+        elif step == "squat":
+            squat(loco)
         elif step == "arm":
             arm(publisher, lowstate)
         elif step == "arm7":

@@ -10,8 +10,9 @@ by clear_fault). HOLD and FAULT latch until an operator clears them; WARN follow
 A fall is a tilt (or spin) past the limit **while something is meant to hold the robot upright**: in
 LOW_LEVEL always (the user's controller is responsible), in IDLE and HIGH_LEVEL only while the high-level
 service is active in a state of the built-in controller that holds the robot up (``UPRIGHT_FSM_IDS``).
-A robot the controller was told to let down or lay down (damp, zero torque, squat, sit, lie down 702) is
-not fallen by this check, and a lying robot can be stood up through 702 without tripping it.
+A robot the controller was told to let down or lay down (damp, zero torque, squat, sit) is not fallen by
+this check, and a lying robot can be stood up through 702 without tripping it: 702 is exempt only while its
+get-up runs (fsm_mode 1); once the robot stands at 702 (fsm_mode 0), a tilt is a fall again.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from types import MappingProxyType
 from typing import Final
 
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.protocol.fsm import FsmId
+from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 
 
 class Reaction(IntEnum):
@@ -38,6 +39,12 @@ class Reaction(IntEnum):
 #: Controller states that hold the robot upright: lock stand, walking, squat-to-stand, running.
 UPRIGHT_FSM_IDS: Final = frozenset({FsmId.STAND_UP, FsmId.WALK_OLD, FsmId.START, FsmId.START_WAIST,
                                     FsmId.SQUAT_TO_STAND, FsmId.RUN, FsmId.RUN_29DOF})
+
+
+def holds_upright(fsm_id: int, fsm_mode: int) -> bool:
+    """The built-in controller holds the robot upright: a standing or walking state, or lie-to-stand (702)
+    once its get-up finished (while it runs the robot rises from the floor, tilted by design)."""
+    return fsm_id in UPRIGHT_FSM_IDS or (fsm_id == FsmId.LIE_TO_STAND and fsm_mode == FsmMode.STATIC)
 
 
 @dataclass(frozen=True)

@@ -350,7 +350,7 @@ class Bridge:
         report = self.loop.body if hasattr(self, "loop") else None
         pose = self.robot.base_pose()
         out: dict[str, Any] = {"tilt": tilt_rad(pose.quaternion), "pelvis_z": float(pose.position[2]),
-                               "gantry": self.robot.gantry}
+                               "gantry": self.robot.gantry, "posture": self.robot.posture.value}
         if report is not None:
             b = report.battery
             out |= {"winding_c": report.hottest_winding_c, "casing_c": report.hottest_casing_c, "soc": b.soc,

@@ -57,6 +57,7 @@ from g1_sim.firmware.arm_tasks import (
 )
 from g1_sim.firmware.body import Body
 from g1_sim.firmware.odometry import OdomErrors, OdomEstimate, Odometer
+from g1_sim.firmware.posture import Posture, posture_of
 from g1_sim.firmware.state import BasePose, BodySnapshot, ImuSnapshot, LowStateSnapshot, quat_to_rpy, rpy_of, tilt_rad
 from g1_sim.firmware.user_ctrl import (
     DEFAULT_DELAY_S,
@@ -100,6 +101,9 @@ HIGH_STAND: Final = 0xFFFFFFFF
 #: Fall detector: pelvis below this and tilted more than FALL_TILT_RAD.
 FALL_HEIGHT_M: Final = 0.4
 FALL_TILT_RAD: Final = 0.8
+#: The lie-to-stand (702) motion's ramp, s: with its hold and hand-over about 5.6 s from the floor to a
+#: balanced stand. No vendor source gives the robot's time; a few seconds, slower than the 4 stand-up.
+GET_UP_RAMP_S: Final = 4.5
 
 
 def _posture(hip: float, knee: float, ankle: float) -> np.ndarray:
@@ -160,8 +164,11 @@ class SimG1:
         self._squat = PostureHarness(self._g1, SQUAT_POSE, float(standing_qpos(self._g1.model, SQUAT_POSE)[2]))
         self._sit = PostureHarness(self._g1, SIT_POSE, float(standing_qpos(self._g1.model, SIT_POSE)[2]))
         self._stance = StanceController(self._g1)
-        self._stand_up = StandUpSequence(self._g1, self._stance, float(self._g1.model.key_qpos[self._g1.stand_key][2]),
-                                         kp=policy.kp * 2.0, kd=policy.kd * 2.0)
+        stand_z = float(self._g1.model.key_qpos[self._g1.stand_key][2])
+        self._stand_up = StandUpSequence(self._g1, self._stance, stand_z, kp=policy.kp * 2.0, kd=policy.kd * 2.0)
+        self._get_up = StandUpSequence(self._g1, self._stance, stand_z, ramp_s=GET_UP_RAMP_S, kp=policy.kp * 2.0,
+                                       kd=policy.kd * 2.0)
+        self._squatting = False  # squatted down by 706 (StandUp2Squat)
         self._ctrl: Controller = self._zero
         self._body = Body(start_soc)
         self._forces = PelvisForces(self._g1.pelvis_body)
@@ -185,7 +192,7 @@ class SimG1:
             ("set_fsm_requests", "damp_requests", "refused", "invalid_fsm", "velocity_requests",
              "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls", "remote_damps",
              "pushes", "user_ctrl_switches", "user_ctrl_refused", "internal_ctrl_switches", "user_ctrl_ignored_calls",
-             "user_lowcmd_frames", "user_lowcmd_ignored"), 0)
+             "user_lowcmd_frames", "user_lowcmd_ignored", "posture_ignored"), 0)
         self._fallen = False
 
         if start_service:
@@ -253,11 +260,12 @@ class SimG1:
 
     def _balanced(self) -> bool:
         """The built-in controller stands or walks on its own (lock stand or policy, stand-up finished)."""
-        return self._ctrl in (self._loco, self._stance) or (self._ctrl is self._stand_up and self._stand_up.done)
+        return self._ctrl in (self._loco, self._stance) or (
+            self._ctrl in (self._stand_up, self._get_up) and self._ctrl.done)
 
     def _transition_running(self) -> bool:
-        if self._ctrl is self._stand_up:
-            return not self._stand_up.done
+        if self._ctrl in (self._stand_up, self._get_up):
+            return not self._ctrl.done
         if self._ctrl in (self._squat, self._sit):
             return self._ctrl.progress < 1.0
         return False
@@ -352,14 +360,32 @@ class SimG1:
                 return self._log("SetFsmId", fsm_id, ERR_SERVER_API_NOT_IMPL)
             if self._uc.engaged:
                 return self._ignored_in_user_ctrl("SetFsmId", fsm_id)
-            code = rules.set_fsm_verdict(self._fsm, fsm_id, dynamic=self._fsm_mode == FsmMode.DYNAMIC)
-            if code == OK and fsm_id != self._fsm:
+            code = rules.set_fsm_verdict(self._fsm, fsm_id, dynamic=self._fsm_mode == FsmMode.DYNAMIC,
+                                         squatting=self._squatting)
+            if code != OK:
+                return self._log("SetFsmId", fsm_id, code)
+            if rules.stays_as_it_is(fsm_id, self._posture()):
+                self.counters["posture_ignored"] += 1
+                log.info("t=%.2f SetFsmId(%d) with the robot %s: 0, nothing moves", self.time, fsm_id,
+                         self._posture().value)
+            elif fsm_id != self._fsm or (rules.squats_down(self._fsm, fsm_id) and self._balanced()):
                 self._enter(int(fsm_id))
             return self._log("SetFsmId", fsm_id, code)
 
+    def _posture(self) -> Posture:
+        return posture_of(float(self._data.qpos[2]), self._data.qpos[3:7])
+
+    @property
+    def posture(self) -> Posture:
+        """Upright, or lying on its back or front (what 702, 4 and 706 are judged on)."""
+        with self._lock:
+            return self._posture()
+
     def _enter(self, fsm: int) -> None:
         was_balanced = self._balanced()
+        squat_down = rules.squats_down(self._fsm, fsm) and was_balanced
         self._fsm = fsm
+        self._squatting = squat_down
         self._velocity[:] = 0.0
         self._velocity_until = 0.0
         if fsm not in STANDING_FSM_IDS:
@@ -375,6 +401,10 @@ class SimG1:
             self._switch(self._sit)
         elif fsm in WALKING_FSM_IDS:  # only ever entered from a balanced stand (rules)
             self._switch(self._loco)
+        elif squat_down:  # 706 from standing: StandUp2Squat, a balanced squat
+            self._switch(self._squat)
+        elif fsm == FsmId.LIE_TO_STAND:  # from damping, the robot lying (rules)
+            self._switch(self._get_up)
         elif not was_balanced:  # stand-up ids from damp / squat / sit
             self._switch(self._stand_up)
         else:  # stand-up ids from walking or another stand: lock stand where the feet are
@@ -544,6 +574,7 @@ class SimG1:
                 self._service = ""
                 self._uc.end()
                 self._fsm = int(FsmId.ZERO_TORQUE)
+                self._squatting = False
                 self._fsm_mode = int(FsmMode.STATIC)
                 self._velocity[:] = 0.0
                 self._arm.weight = 0.0
@@ -626,6 +657,7 @@ class SimG1:
         self._uc.end()
         self._user.clear()
         self._fsm = fsm
+        self._squatting = False
         self._loco.command[:] = 0.0
         if fsm == FsmId.DAMP:
             self._switch(self._damp)

@@ -4,7 +4,12 @@ Pure Python (no physics), so the table can be read in one screen and unit-tested
 where the robot's behaviour is not documented:
 
 * 802 (run on newer 29-dof firmware) is accepted wherever 801 is and walks like it.
-* 702 (lie-to-stand) and 706 (squat-to-stand) stand the robot up like 4 and take the same origins.
+* A robot lying on the floor gets up only through 702 (lie-to-stand), and only from damping (the vendor's
+  remote instructions: damp, then lie-to-stand). 702 with the robot not lying, and 4 or 706 with it lying,
+  answer 0 and leave the robot as it is (what a G1 does there is not documented: the least a client gets).
+* 706 from a standing fsm squats the robot down (StandUp2Squat); from damping, a squat or sit it stands the
+  robot up (Squat2StandUp). In that squat only damping and zero torque are taken: to stand again the
+  vendor's instructions go through damping first.
 * Squat (2) and sit (3) are reached from standing (or from each other), not from damping.
 * Requesting the current fsm id again is accepted and changes nothing.
 """
@@ -15,6 +20,7 @@ from typing import Final
 
 from g1_mode_manager.protocol.api_ids import ERR_INVALID_FSM_ID, ERR_REFUSED_IN_STATE, OK
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, VALID_FSM_IDS, WALKING_FSM_IDS, FsmId
+from g1_sim.firmware.posture import Posture
 
 _ANY: Final = VALID_FSM_IDS
 _STAND_ORIGINS: Final = frozenset({FsmId.DAMP, FsmId.SQUAT, FsmId.SIT}) | STANDING_FSM_IDS
@@ -28,7 +34,7 @@ ALLOWED_FROM: Final[dict[int, frozenset[int]]] = {
     FsmId.SQUAT: _POSTURE_ORIGINS,
     FsmId.SIT: _POSTURE_ORIGINS,
     FsmId.STAND_UP: _STAND_ORIGINS,  # StandUp needs a Damp first: never straight from zero torque
-    FsmId.LIE_TO_STAND: _STAND_ORIGINS,
+    FsmId.LIE_TO_STAND: frozenset({FsmId.DAMP}),  # from the floor, after a damp
     FsmId.SQUAT_TO_STAND: _STAND_ORIGINS,
     **{w: STANDING_FSM_IDS for w in WALKING_FSM_IDS},  # walking starts from a balanced stand
 }
@@ -37,8 +43,9 @@ ALLOWED_FROM: Final[dict[int, frozenset[int]]] = {
 STAND_UP_IDS: Final = frozenset({FsmId.STAND_UP, FsmId.LIE_TO_STAND, FsmId.SQUAT_TO_STAND})
 
 
-def set_fsm_verdict(current: int, requested: int, *, dynamic: bool) -> int:
-    """Return code of SetFsmId(requested) in state ``current``: 0, 7302 (unknown id) or 7301 (refused)."""
+def set_fsm_verdict(current: int, requested: int, *, dynamic: bool, squatting: bool = False) -> int:
+    """Return code of SetFsmId(requested) in state ``current``: 0, 7302 (unknown id) or 7301 (refused).
+    ``squatting``: the robot squats in 706 (StandUp2Squat), where only damping and zero torque are taken."""
     if requested not in VALID_FSM_IDS:
         return ERR_INVALID_FSM_ID
     if requested == FsmId.DAMP:
@@ -47,7 +54,24 @@ def set_fsm_verdict(current: int, requested: int, *, dynamic: bool) -> int:
         return ERR_REFUSED_IN_STATE
     if requested == current:
         return OK
+    if squatting:
+        return OK if requested == FsmId.ZERO_TORQUE else ERR_REFUSED_IN_STATE
     return OK if current in ALLOWED_FROM[requested] else ERR_REFUSED_IN_STATE
+
+
+def stays_as_it_is(requested: int, posture: Posture) -> bool:
+    """An accepted SetFsmId that moves nothing: a stand-up (4, 706) of a lying robot, a lie-to-stand (702) of
+    one that does not lie. The fsm stays where it was."""
+    if requested in (FsmId.STAND_UP, FsmId.SQUAT_TO_STAND):
+        return posture.lying
+    if requested == FsmId.LIE_TO_STAND:
+        return not posture.lying
+    return False
+
+
+def squats_down(current: int, requested: int) -> bool:
+    """706 from a standing fsm is StandUp2Squat; from damping, squat or sit it is Squat2StandUp."""
+    return requested == FsmId.SQUAT_TO_STAND and current in STANDING_FSM_IDS
 
 
 def set_velocity_verdict(current: int) -> int:
