@@ -1,4 +1,4 @@
-"""An e-stop inside each step of the user-control switch (issue 31), the real node against the real sim, judged on
+"""An e-stop inside each step of the user-control switch, the real node against the real sim, judged on
 the sim's record.
 
 Each test holds the node inside one step for STEP_HELD_S (the sim's delay_s on the step's robot call, or a rest the
