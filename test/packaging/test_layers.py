@@ -1,4 +1,4 @@
-"""The layers import only downward: a claim the README makes, checked here.
+"""The layers import only downward: a claim the README and docs/architecture.md make, checked here.
 
 ``core/`` (the state machine, the robot port, the body checks), ``relay/`` (the stream workers) and
 ``display/`` (the head LED) import with ROS and DDS made unimportable; the sim shares only ``protocol/``
