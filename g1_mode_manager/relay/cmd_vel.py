@@ -1,4 +1,12 @@
-"""/cmd_vel -> LocoClient Move, in HIGH_LEVEL only: sanitised, clamped, rate-limited, latest-wins, watchdog.
+"""/cmd_vel (and the autonomy's cmd_vel_nav) -> LocoClient Move, in HIGH_LEVEL only: sanitised, clamped,
+rate-limited, latest-wins, watchdog.
+
+Two sources feed one Move stream: the teleop and, once an operator handed it the robot, the autonomy, each
+with its own limits and watchdog (velocity_source.py); who drives is core/drive.py's. One sender writes every
+Move, so no Move of the previous driver can follow the new driver's first: after a change of driver the ramp
+starts again from standstill. The autonomy drives only while its conditions hold (``autonomy_blocked``:
+fresh odometry, no hold, a robot that walks when told to); otherwise it is suspended: a StopMove, and the
+reason in ``driving()``.
 
 A command is sent as soon as it arrives, by a sender thread of its own (the /cmd_vel callback only
 stores it and wakes the thread: a blocking RPC there would stall the node's executor). While the
@@ -14,23 +22,17 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 from g1_mode_manager.core import modes
+from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import PendingReply, RobotError, RobotPort
-from g1_mode_manager.core.velocity import (
-    ZERO,
-    AccelerationLimiter,
-    Sanitized,
-    Velocity,
-    VelocityLimits,
-    check_move_duration,
-    in_dead_band,
-    sanitize,
-)
-from g1_mode_manager.core.watchdog import Watchdog
+from g1_mode_manager.core.velocity import Sanitized, Velocity, VelocityLimits, check_move_duration, in_dead_band
+from g1_mode_manager.relay.drive_sources import DriveSources
 from g1_mode_manager.relay.gate import LinkMonitor, ModeGate
+from g1_mode_manager.relay.velocity_source import VelocitySource
 
 #: While the command is still ramping, the sender steps this often (and this is the limiter's largest dt).
 RAMP_PERIOD_S = 0.05
@@ -43,6 +45,15 @@ MOVE_BURST = 2
 STOP_ATTEMPTS = 5
 #: A transition out of HIGH_LEVEL waits at most this long for the StopMove before its first robot call (s).
 STOP_WAIT_S = 3.0
+
+
+@dataclass(frozen=True)
+class AutonomyInput:
+    """The autonomy's source: its topic (for messages), limits and silence timeout."""
+
+    topic: str
+    limits: VelocityLimits
+    timeout_s: float
 
 
 class CmdVelRelay:
@@ -58,6 +69,7 @@ class CmdVelRelay:
                  limits: VelocityLimits, timeout_s: float, move_duration_s: float, rate_hz: float,
                  max_rate_hz: float, on_error: Callable[[BaseException], None] | None = None,
                  on_acknowledged: Callable[[Velocity, float], None] | None = None,
+                 autonomy: AutonomyInput | None = None, autonomy_blocked: Callable[[], str | None] = lambda: None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         if not (rate_hz > 0.0 and max_rate_hz > 0.0):
             raise ValueError(f"cmd_vel rates must be > 0 Hz, got {rate_hz} and {max_rate_hz}")
@@ -65,25 +77,26 @@ class CmdVelRelay:
         self._gate = gate
         self._link = link
         self._events = events
-        self._limits = limits
         self._period_s = 1.0 / rate_hz
         self._ramp_s = min(self._period_s, RAMP_PERIOD_S)
         self._max_rate_hz = max_rate_hz
-        self._limiter = AccelerationLimiter(limits, max_dt_s=self._ramp_s)
-        self._watchdog = Watchdog(timeout_s, clock)
+        self._wake = threading.Event()
+        #: who drives (the teleop, or the autonomy once handed the robot) and their latest commands
+        self.sources = DriveSources(
+            gate, events, VelocitySource(Driver.TELEOP, "cmd_vel", limits, timeout_s, self._ramp_s, clock),
+            None if autonomy is None else VelocitySource(Driver.AUTONOMY, autonomy.topic, autonomy.limits,
+                                                         autonomy.timeout_s, self._ramp_s, clock),
+            blocked=autonomy_blocked, wake=self._wake.set)
         self._move_duration_s = check_move_duration(move_duration_s)
         self._on_error = on_error
         self._on_acknowledged = on_acknowledged  # (the Move, when it was sent): e.g. a walk judge
         self._clock = clock
-        self._target = ZERO
-        self._untaken = 0  # guarded by _lock: commands taken since the last step (dropped if the gate refuses)
-        self._lock = threading.Lock()
-        self._wake = threading.Event()
         self._stopped = threading.Event()
         self._settled = threading.Condition()  # the sender notifies after every step; _stops under it
         self._stops = 0  # stops (EMERGENCY, FAULT) begun: each ends a transition's wait for a StopMove
         self._thread = threading.Thread(target=self._run, name="cmd_vel_sender", daemon=True)
         # sender thread only:
+        self._source = self.sources.teleop  # the driving source at the last step
         self._maybe_moving = False  # a non-zero Move may be running on the robot
         self._move_in_flight = False  # a Move was written and its answer is awaited
         self._stop_reason: str | None = None  # a StopMove is owed
@@ -95,27 +108,8 @@ class CmdVelRelay:
 
     # --- what the node calls -------------------------------------------------------------------
     def submit(self, vx: float, vy: float, wz: float) -> Sanitized:
-        """Take a new command from /cmd_vel (never blocks); returns what the sender will offer the gate.
-
-        The mode is not asked here: the sender's step asks the forward gate, which decides, and drops (and
-        counts) every command taken since its last step when the gate refuses."""
-        self._events.count("cmd_vel_received")
-        result = sanitize(vx, vy, wz, self._limits)
-        if result.rejected:
-            self._events.count("cmd_vel_rejected")
-            self._events.log("warn", "cmd_vel_rejected", f"{result.reason}: sending zero instead")
-        elif result.clamped:
-            self._events.count("cmd_vel_clamped")
-            self._events.log("warn", "cmd_vel_clamped", result.reason)
-        with self._lock:
-            changed = result.velocity != self._target
-            self._target = result.velocity
-            self._untaken += 1
-        restarted = self._watchdog.expired()
-        self._watchdog.feed()
-        if changed or restarted:  # a repeat of a running command is the keep-alive tick's business
-            self._wake.set()
-        return result
+        """Take a new command from /cmd_vel, the teleop (never blocks); see DriveSources.offer."""
+        return self.sources.offer(self.sources.teleop, vx, vy, wz)
 
     def on_leave(self, source: Mode, target: Mode) -> None:
         """Leave listener: leaving HIGH_LEVEL wakes the sender, which stops a running Move.
@@ -127,6 +121,7 @@ class CmdVelRelay:
         (EMERGENCY, FAULT), which also ends such a wait."""
         if source is not Mode.HIGH_LEVEL:
             return
+        self.sources.left_high_level(target)
         if target in (Mode.EMERGENCY, Mode.FAULT):
             with self._settled:
                 self._stops += 1
@@ -205,32 +200,39 @@ class CmdVelRelay:
         self._last_send = self._tokens_at
 
     def _idle(self) -> bool:
-        return not self._maybe_moving and self._stop_reason is None and self._watchdog.expired()
+        return not self._maybe_moving and self._stop_reason is None and self._source.watchdog.expired()
 
     def _next_step_in(self, last_step: float) -> float | None:
         """Seconds until the next step: the ramp's tick while ramping, else the keep-alive, or the watchdog's
         deadline if that comes first; None when idle (only a wake starts a step)."""
         if self._idle():
             return None
-        with self._lock:
-            ramping = self._target != self._limiter.current
+        source = self._source
+        ramping = source.target != source.limiter.current  # a racy read: at worst one step early or late
         now = self._clock()
         due = last_step + (self._ramp_s if ramping else self._period_s)
-        deadline = self._watchdog.deadline()
+        deadline = source.watchdog.deadline()
         if deadline is not None and now < deadline < due:
             due = deadline + 0.001  # just past it: the step sees the watchdog expired
         return max(0.0, due - now)
 
     def step(self) -> None:
-        """One decision with the latest command: at most one Move or StopMove.
+        """One decision with the driver's latest command: at most one Move or StopMove.
 
         What to send is planned first without asking the mode; the forward gate then decides, once, and its
         decision (the mode it judged) is what the link check and a drop's reason take."""
-        with self._lock:
-            target = self._target
-            untaken, self._untaken = self._untaken, 0
+        pick = self.sources.pick()
+        source, target, untaken = pick.source, pick.target, pick.untaken
+        if pick.new_driver:  # no Move after this carries the previous driver's velocity
+            source.limiter.reset()
+            self._last_ack = None
+        self._source = source
         now = self._clock()
-        v, rest_why = self._plan(target, now)
+        blocked = self.sources.blocked() if source.driver is Driver.AUTONOMY else None
+        if blocked is not None:
+            v, rest_why = None, f"autonomy suspended: {blocked}"
+        else:
+            v, rest_why = self._plan(source, target, now)
         reply = None
         with self._gate.forwarding(modes.allows_cmd_vel) as decision:
             forward = decision.allowed and self._link.link_ok(decision.mode)
@@ -238,9 +240,7 @@ class CmdVelRelay:
                 reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
                 self._move_in_flight = reply is not None
         if not forward:
-            self._watchdog.reset()
-            with self._lock:
-                self._target = ZERO
+            self.sources.forget_all()
             if not decision.allowed and untaken:
                 self._events.count("cmd_vel_dropped", untaken)
                 self._events.log("warn", "cmd_vel_dropped", f"cmd_vel dropped: mode is {decision.mode.name}, "
@@ -255,23 +255,23 @@ class CmdVelRelay:
             finally:
                 self._move_in_flight = False
 
-    def _plan(self, target: Velocity, now: float) -> tuple[Velocity | None, str | None]:
+    def _plan(self, source: VelocitySource, target: Velocity, now: float) -> tuple[Velocity | None, str | None]:
         """(the Move to write, None) or (None, why to rest instead); (None, None): nothing due, the robot runs
         exactly this already and only the keep-alive repeats it (a 100 Hz stream of one value costs
         cmd_vel_rate_hz Moves a second, not max_rate_hz)."""
-        if self._watchdog.expired():
-            return None, f"no cmd_vel for {self._watchdog.timeout_s} s"
+        if source.watchdog.expired():
+            return None, f"no {source.topic} for {source.watchdog.timeout_s} s"
         dt = self._ramp_s if self._last_ack is None else now - self._last_ack
-        v = self._limiter.propose(target, dt)
+        v = source.limiter.propose(target, dt)
         if in_dead_band(v) and in_dead_band(target):
             return None, "command below the robot's dead band (0.1)"
-        if self._last_ack is not None and v == self._limiter.current and now - self._last_send < self._period_s:
+        if self._last_ack is not None and v == source.limiter.current and now - self._last_send < self._period_s:
             return None, None
         return v, None
 
     def _rest(self, why: str) -> None:
         """Nothing to send: a StopMove if one is owed, and the limiter starts again from standstill."""
-        self._limiter.reset()
+        self._source.limiter.reset()
         self._last_ack = None
         if self._maybe_moving or self._stop_reason is not None:
             self._stop_move(why)
@@ -292,7 +292,7 @@ class CmdVelRelay:
         except RobotError as exc:
             self._move_failed(exc, v)
             return
-        self._limiter.commit(v)
+        self._source.limiter.commit(v)
         self._last_ack = now
         self._maybe_moving = not v.is_zero()
         self._stop_reason = None
@@ -304,7 +304,7 @@ class CmdVelRelay:
     def _move_failed(self, exc: RobotError, v: Velocity) -> None:
         lost = exc.maybe_delivered  # sent, answer lost: it may be running
         self._maybe_moving = self._maybe_moving or (lost and not v.is_zero())
-        self._limiter.reset()
+        self._source.limiter.reset()
         self._last_ack = None
         self._events.count("rpc_failures")
         self._events.log("error", "move_failed", f"Move failed: {exc}; the ramp restarts from zero")
