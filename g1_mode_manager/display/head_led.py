@@ -106,13 +106,17 @@ class HeadLed:
     """Drives the head LED from the mode; ``tick`` runs in the LED's own worker thread.
 
     ``voice`` returns the voice port, or None while the robot is not connected (nothing is sent then,
-    and nothing counted as a failure).
+    and nothing counted as a failure). In HIGH_LEVEL, ``autonomy_look`` replaces the mode's look while
+    ``autonomy_drives()``: who drives shows as well as the mode.
     """
 
     def __init__(self, mode: Callable[[], Mode], voice: Callable[[], VoicePort | None],
                  looks: Mapping[Mode, LedLook], events: RelayEvents, *, announce: bool = False,
+                 autonomy_look: LedLook | None = None, autonomy_drives: Callable[[], bool] = lambda: False,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self._mode = mode
+        self._autonomy_look = autonomy_look
+        self._autonomy_drives = autonomy_drives
         self._voice = voice
         self._looks = dict(looks)
         self._events = events
@@ -138,7 +142,10 @@ class HeadLed:
             return
         mode = self._mode()
         now = self._clock()
-        colour = self._looks[mode].colour_at(now)
+        look = self._looks[mode]
+        if mode is Mode.HIGH_LEVEL and self._autonomy_look is not None and self._autonomy_drives():
+            look = self._autonomy_look
+        colour = look.colour_at(now)
         if colour != self._sent or now - self._sent_at >= REFRESH_S:
             self._send(voice, colour, now)
         if self._announce and mode is not self._announced:

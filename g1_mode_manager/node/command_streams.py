@@ -1,7 +1,8 @@
-"""The command streams the node takes: cmd_vel (Twist or TwistStamped), ~/arm_cmd and ~/lowcmd.
+"""The command streams the node takes: cmd_vel and the autonomy's (Twist or TwistStamped), ~/arm_cmd, ~/lowcmd.
 
 They are taken by a thread of their own from a wait set of just them (see stream_taker.py): rclpy's executor
-rebuilds its wait set in Python for every /cmd_vel. cmd_vel is relative (a namespace gives each robot its own);
+rebuilds its wait set in Python for every /cmd_vel. cmd_vel and the autonomy's topic are relative (a namespace
+gives each robot its own);
 ~/arm_cmd and ~/lowcmd carry the main node's name. Each message is handed to its relay, which decides under
 the forward gate whether it passes.
 """
@@ -28,6 +29,7 @@ class CommandStreams:
     def __init__(self, main: Node, settings: Settings, parts: Parts) -> None:
         self._clock = main.get_clock()
         self._cmd_vel_timeout_s = settings.cmd_vel_timeout_s
+        self._autonomy_timeout_s = settings.autonomy_timeout_s
         self._parts = parts
         self._node = rclpy.create_node(f"{main.get_name()}_streams", namespace=main.get_namespace(),
                                        context=main.context, start_parameter_services=False)
@@ -37,6 +39,10 @@ class CommandStreams:
             self._taker.subscribe(TwistStamped, "cmd_vel", self._on_cmd_vel_stamped)
         else:
             self._taker.subscribe(Twist, "cmd_vel", self._on_cmd_vel, raw=True)  # decoded by twist_cdr
+        if settings.autonomy_topic and settings.autonomy_stamped:
+            self._taker.subscribe(TwistStamped, settings.autonomy_topic, self._on_autonomy_stamped)
+        elif settings.autonomy_topic:
+            self._taker.subscribe(Twist, settings.autonomy_topic, self._on_autonomy, raw=True)
         self._taker.subscribe(JointState, f"{under_main}/arm_cmd", self._on_arm_cmd)
         self._lowcmd_reader = JointCommandReader()
         self._taker.subscribe(JointCommand, f"{under_main}/lowcmd", self._on_lowcmd, raw=True)  # joint_command_cdr
@@ -52,17 +58,29 @@ class CommandStreams:
         self._parts.cmd_vel.submit(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
-        """A command older than cmd_vel_timeout_s is dropped and counted (it would restart a robot the
+        if self._fresh(msg, "cmd_vel", self._cmd_vel_timeout_s):
+            t = msg.twist
+            self._parts.cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
+
+    def _on_autonomy(self, data: bytes) -> None:
+        sources = self._parts.cmd_vel.sources
+        sources.offer(sources.autonomy, *twist_velocity(data))
+
+    def _on_autonomy_stamped(self, msg: TwistStamped) -> None:
+        if self._fresh(msg, "autonomy", self._autonomy_timeout_s):
+            t, sources = msg.twist, self._parts.cmd_vel.sources
+            sources.offer(sources.autonomy, t.linear.x, t.linear.y, t.angular.z)
+
+    def _fresh(self, msg: TwistStamped, key: str, timeout_s: float) -> bool:
+        """A command older than its source's timeout is dropped and counted (it would restart a robot the
         watchdog already stopped)."""
         age_s = stamp_age_s(self._clock.now().nanoseconds, msg.header.stamp.sec, msg.header.stamp.nanosec)
-        if age_s > self._cmd_vel_timeout_s:
-            events = self._parts.log.events
-            events.count("cmd_vel_stale_dropped")
-            events.log("warn", "cmd_vel_stale", f"cmd_vel dropped: stamp {age_s:.3f} s old (cmd_vel_timeout_s "
-                             f"{self._cmd_vel_timeout_s:.3f} s)")
-            return
-        t = msg.twist
-        self._parts.cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
+        if age_s <= timeout_s:
+            return True
+        events = self._parts.log.events
+        events.count(f"{key}_stale_dropped")
+        events.log("warn", f"{key}_stale", f"{key} dropped: stamp {age_s:.3f} s old (timeout {timeout_s:.3f} s)")
+        return False
 
     def _on_arm_cmd(self, msg: JointState) -> None:
         self._parts.arm.submit(list(msg.name), list(msg.position))

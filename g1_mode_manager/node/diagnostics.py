@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
+from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
+from g1_mode_manager.relay.drive_sources import Driving
 from g1_mode_manager.relay.link_health import LinkReport
 from g1_mode_manager.relay.walk_judge import WalkReport
 
@@ -86,6 +88,21 @@ def walk_status(report: WalkReport, hardware_id: str) -> DiagnosticStatus:
         st.message = "not judged: no Move acknowledged lately, or no fresh odometry from the robot"
     st.values = [_kv("commanded_mps", report.commanded[0]), _kv("commanded_radps", report.commanded[1]),
                  _kv("measured_mps", report.measured[0]), _kv("measured_radps", report.measured[1])]
+    return st
+
+
+def drive_status(driving: Driving, hardware_id: str) -> DiagnosticStatus:
+    """Who drives; WARN while the autonomy drives but its commands do not move the robot (suspended, silent)."""
+    st = DiagnosticStatus(name="g1_mode_manager: driver", hardware_id=hardware_id)
+    st.level = DiagnosticStatus.WARN if driving.autonomy_suspended else DiagnosticStatus.OK
+    suspended = f": {driving.autonomy_suspended}" if driving.autonomy_suspended else ""
+    st.message = {Driver.NOBODY: "nobody drives: velocity commands pass only in HIGH_LEVEL",
+                  Driver.TELEOP: "the teleop drives (cmd_vel)",
+                  Driver.AUTONOMY: f"the autonomy drives{suspended}"}[driving.driver]
+    command = driving.autonomy_command
+    st.values = [_kv("driver", driving.driver.value), _kv("autonomy_suspended", driving.autonomy_suspended),
+                 *([] if command is None else [_kv("autonomy_vx", command.vx), _kv("autonomy_vy", command.vy),
+                                               _kv("autonomy_wz", command.wz)])]
     return st
 
 

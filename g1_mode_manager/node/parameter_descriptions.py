@@ -43,6 +43,21 @@ DESCRIPTIONS: dict[str, str] = {
     "max_ax": "Forward acceleration limit, m/s^2.",
     "max_ay": "Lateral acceleration limit, m/s^2.",
     "max_awz": "Yaw acceleration limit, rad/s^2.",
+    "autonomy_topic": "The autonomy's velocity input (a planner, e.g. Nav2's controller or collision monitor output): "
+    "relayed only in HIGH_LEVEL after ~/hand_over_to_autonomy, until a non-zero cmd_vel or ~/take_over takes the "
+    "robot back; relative like cmd_vel; '' = no autonomy. Read at start.",
+    "autonomy_stamped": "The autonomy's input is geometry_msgs/TwistStamped (stamps older than autonomy_timeout_s are "
+    "dropped) instead of Twist. Read at start.",
+    "autonomy_timeout_s": "The autonomy silent for this long while it drives: a StopMove (it keeps the robot: its "
+    "next command moves it again, nobody else's does), s.",
+    "autonomy_odom_timeout_s": "The autonomy is suspended (StopMove, the reason in ~/mode) while the robot's "
+    "odometry (rt/lf/odommodestate) is older than this, s.",
+    "autonomy_max_vx": "Clamp of the autonomy's forward velocity, m/s.",
+    "autonomy_max_vy": "Clamp of the autonomy's lateral velocity, m/s.",
+    "autonomy_max_wz": "Clamp of the autonomy's yaw rate, rad/s.",
+    "autonomy_max_ax": "The autonomy's forward acceleration limit, m/s^2.",
+    "autonomy_max_ay": "The autonomy's lateral acceleration limit, m/s^2.",
+    "autonomy_max_awz": "The autonomy's yaw acceleration limit, rad/s^2.",
     "arm_ramp_time_s": "Time for the rt/arm_sdk blend weight to go 0 -> 1 or 1 -> 0, s.",
     "arm_cmd_timeout_s": "No ~/arm_cmd for this long ramps the arms back to the controller, s.",
     "arm_rate_hz": "Rate of rt/arm_sdk frames while the weight is above zero, Hz.",
@@ -53,6 +68,9 @@ DESCRIPTIONS: dict[str, str] = {
     "lowcmd_exit_damping_s": "After LOW_LEVEL -> IDLE, damping frames go on this long (the robot holds the last frame), s.",
     "link_timeout_s": "rt/lowstate (and in HIGH_LEVEL rt/sportmodestate) older than this = link lost, s.",
     "mode_publish_rate_hz": "Rate at which ~/mode is re-published besides every change, Hz.",
+    "mode_change_check_hz": "Rate at which what ~/mode carries (holds, warnings, the autonomy's state...) is compared "
+    "with what was published last, and published if it changed; a mode change or a change of driver is published "
+    "at once, Hz.",
     "diagnostics_rate_hz": "Rate of /diagnostics, Hz.",
     "estop_call_timeout_s": "Timeout of each Damp and GetFsmId of an e-stop (short: a dead link must not hold it), s.",
     "estop_select_timeout_s": "Timeout of an e-stop's motion switcher calls (CheckMode, SelectMode('ai') and its "
@@ -74,6 +92,7 @@ DESCRIPTIONS: dict[str, str] = {
     "head_led_low_level": "Head LED in LOW_LEVEL: 'R G B [solid|pulse|flash] [period_s]'.",
     "head_led_emergency": "Head LED in EMERGENCY: 'R G B [solid|pulse|flash] [period_s]'.",
     "head_led_fault": "Head LED in FAULT: 'R G B [solid|pulse|flash] [period_s]'.",
+    "head_led_autonomy": "Head LED in HIGH_LEVEL while the autonomy drives: 'R G B [solid|pulse|flash] [period_s]'.",
     "announce_modes": "Announce every mode change through the robot's speaker (TTS).",
     "voice_timeout_s": "Timeout of one head LED or TTS call, s (the LED worker waits, nothing else does).",
     "joint_state_rate_hz": "Rate of joint_states (sensor_msgs/JointState) and ~/imu from rt/lowstate; 0 = off, Hz.",

@@ -10,17 +10,19 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.display.head_led import HeadLed, parse_looks
+from g1_mode_manager.display.head_led import HeadLed, LedLook, parse_looks
 from g1_mode_manager.node.body_supervision import BodySupervision
 from g1_mode_manager.node.node_log import NodeLog
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.node.supervisor import RobotSupervisor
 from g1_mode_manager.relay.arm import ArmRelay
-from g1_mode_manager.relay.cmd_vel import CmdVelRelay
+from g1_mode_manager.relay.autonomy_conditions import AutonomyConditions
+from g1_mode_manager.relay.cmd_vel import AutonomyInput, CmdVelRelay
 from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
@@ -67,11 +69,16 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
                           user_ctrl=s.user_ctrl_config())  # None: low_level_path release
     link = LinkHealth(port, machine, s.link_timeout_s)
     walk = WalkJudge(s.not_walking_after_s)
+    autonomy = None if not s.autonomy_topic else AutonomyInput(s.autonomy_topic, s.autonomy_limits(),
+                                                                s.autonomy_timeout_s)
     cmd_vel = CmdVelRelay(port, machine, link, events, limits=s.velocity_limits(), timeout_s=s.cmd_vel_timeout_s,
                           move_duration_s=s.move_duration_s, rate_hz=s.cmd_vel_rate_hz,
                           max_rate_hz=s.cmd_vel_max_rate_hz, on_error=on_error,
                           on_acknowledged=lambda v, sent_at: walk.acknowledged(v.vx, v.vy, v.wz, sent_at,
-                                                                               port.odometry()))
+                                                                               port.odometry()),
+                          autonomy=autonomy,
+                          autonomy_blocked=AutonomyConditions(port, lambda: machine.status().holds, walk,
+                                                              odom_timeout_s=s.autonomy_odom_timeout_s))
     arm = ArmRelay(port, machine, link, events, ramp_time_s=s.arm_ramp_time_s, silence_timeout_s=s.arm_cmd_timeout_s,
                    kp=s.arm_kp, kd=s.arm_kd, period_s=1.0 / s.arm_rate_hz)
     body = BodySupervision(port, machine, events, s, on_error)
@@ -88,7 +95,8 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
     head_led = head_led_worker = None
     if s.head_led_enabled:
         head_led = HeadLed(lambda: machine.mode, lambda: port.voice(s.voice_timeout_s), parse_looks(s.led_looks()),
-                           events, announce=s.announce_modes)
+                           events, announce=s.announce_modes, autonomy_look=LedLook.parse(s.head_led_autonomy),
+                           autonomy_drives=lambda: cmd_vel.sources.driving(machine.mode).driver is Driver.AUTONOMY)
         head_led_worker = PeriodicWorker("head_led", s.head_led_rate_hz, head_led.tick, on_error)
     parts = Parts(
         port=port, log=log, machine=machine, link=link, walk=walk, cmd_vel=cmd_vel, arm=arm,

@@ -1,4 +1,5 @@
-"""The node's services: ~/set_mode, ~/loco_command and ~/clear_fault (the e-stop has a side node of its own).
+"""The node's services: ~/set_mode, ~/loco_command, ~/clear_fault, and who drives in HIGH_LEVEL:
+~/hand_over_to_autonomy and ~/take_over (the e-stop has a side node of its own).
 
 set_mode may block for seconds (SelectMode on a robot), and a loco command holds a thread while it waits for
 the robot to show its outcome: they are served on a side node with a thread pool of its own, so the command
@@ -25,7 +26,7 @@ SERVICE_THREADS = 6
 
 
 class Services:
-    """Serves the main node's ~/set_mode, ~/loco_command and ~/clear_fault from a side node's executor."""
+    """Serves the main node's services from a side node's executor."""
 
     def __init__(self, main: Node, parts: Parts) -> None:
         self._log = main.get_logger()
@@ -35,7 +36,9 @@ class Services:
         group = ReentrantCallbackGroup()
         for srv_type, name, callback in ((SetMode, "set_mode", self._on_set_mode),
                                          (LocoCommand, "loco_command", self._on_loco_command),
-                                         (Trigger, "clear_fault", self._on_clear_fault)):
+                                         (Trigger, "clear_fault", self._on_clear_fault),
+                                         (Trigger, "hand_over_to_autonomy", self._on_hand_over),
+                                         (Trigger, "take_over", self._on_take_over)):
             self._side.node.create_service(srv_type, self._side.name_under_main(name), callback, callback_group=group)
 
     def start(self) -> None:
@@ -84,4 +87,16 @@ class Services:
         monitor = self._parts.body.monitor
         outcome = self._parts.machine.clear_fault(lambda: monitor.clearable(time.monotonic()), monitor.clear)
         response.success, response.message = outcome.success, outcome.message
+        return response
+
+    def _on_hand_over(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """The autonomy drives, if it can (HIGH_LEVEL, nothing held, fresh odometry...); else why not."""
+        response.success, response.message = self._parts.cmd_vel.sources.hand_over()
+        if not response.success:
+            self._log.warn(f"hand_over_to_autonomy refused: {response.message}")
+        return response
+
+    def _on_take_over(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """The teleop drives (the autonomy's Moves stop; it needs a new hand-over)."""
+        response.success, response.message = self._parts.cmd_vel.sources.take_over()
         return response

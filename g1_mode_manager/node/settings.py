@@ -42,6 +42,17 @@ class Settings:
     max_ax: float = 1.5
     max_ay: float = 1.0
     max_awz: float = 3.0
+    # --- the autonomy: a planner's velocity, once an operator handed it the robot (core/drive.py) ---
+    autonomy_topic: str = "cmd_vel_nav"
+    autonomy_stamped: bool = False
+    autonomy_timeout_s: float = 0.5
+    autonomy_odom_timeout_s: float = 0.5
+    autonomy_max_vx: float = 0.5
+    autonomy_max_vy: float = 0.3
+    autonomy_max_wz: float = 0.8
+    autonomy_max_ax: float = 1.0
+    autonomy_max_ay: float = 0.7
+    autonomy_max_awz: float = 2.0
     arm_ramp_time_s: float = 2.0
     arm_cmd_timeout_s: float = 1.0
     arm_rate_hz: float = 50.0
@@ -52,6 +63,7 @@ class Settings:
     lowcmd_exit_damping_s: float = 0.2
     link_timeout_s: float = 0.5
     mode_publish_rate_hz: float = 1.0
+    mode_change_check_hz: float = 20.0
     diagnostics_rate_hz: float = 1.0
     loco_outcome_timeout_s: float = 3.0
     loco_motion_timeout_s: float = 6.0
@@ -76,6 +88,7 @@ class Settings:
     head_led_low_level: str = "255 120 0 pulse 1.0"
     head_led_emergency: str = "255 0 0 flash 0.2"
     head_led_fault: str = "255 80 0 flash 0.5"
+    head_led_autonomy: str = "0 255 255 pulse 1.5"
     announce_modes: bool = False
     voice_timeout_s: float = 0.5
     joint_state_rate_hz: float = 0.0
@@ -123,6 +136,10 @@ class Settings:
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
 
+    def autonomy_limits(self) -> VelocityLimits:
+        return VelocityLimits(self.autonomy_max_vx, self.autonomy_max_vy, self.autonomy_max_wz,
+                              self.autonomy_max_ax, self.autonomy_max_ay, self.autonomy_max_awz)
+
     def body_thresholds(self) -> dict[str, float]:
         """Body check name -> threshold, as set."""
         return {check: getattr(self, name) for check, name in BODY_THRESHOLD_PARAMETERS.items()}
@@ -160,7 +177,7 @@ def declare_settings(node: Node) -> Settings:
         else:
             node.declare_parameter(name, default, descriptor(name, default))
         values[name] = node.get_parameter(name).value
-    for name in LED_PARAMETERS.values():
+    for name in (*LED_PARAMETERS.values(), "head_led_autonomy"):
         try:
             LedLook.parse(values[name])
         except ValueError as exc:

@@ -1,7 +1,9 @@
 """What the node publishes: ~/mode, /diagnostics, the ~/sportmodestate mirror, odom, joint_states and ~/imu.
 
 Each runs on a plain thread (a PeriodicWorker), not an executor timer: rclpy's executor costs Python per
-wake-up. ~/mode is also published at every change of the machine, and never goes back in time.
+wake-up. ~/mode is published at every change of the machine and of the driver as it happens, at every other
+change of what it carries (holds, warnings, the autonomy's state, the link) within 1 / mode_change_check_hz,
+and besides at mode_publish_rate_hz; it never goes back in time.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.node.diagnostics import build_diagnostics, walk_status
+from g1_mode_manager.node.diagnostics import build_diagnostics, drive_status, walk_status
 from g1_mode_manager.node.odometry import OdometryPublisher
 from g1_mode_manager.node.parts import Parts
 from g1_mode_manager.node.settings import Settings
@@ -34,6 +36,7 @@ class StatePublishers:
         self._parts = parts
         self._publish_lock = threading.Lock()
         self._published_version = -1
+        self._published_content: tuple[object, ...] | None = None  # every field of the last ~/mode but its stamp
         self._mirrored_stamp = 0.0  # monotonic receive time of the last rt/sportmodestate mirrored
         self._mode_pub = node.create_publisher(ModeMsg, "~/mode", MODE_QOS)
         self._sport_pub = node.create_publisher(SportModeState, "~/sportmodestate", 10)
@@ -42,6 +45,7 @@ class StatePublishers:
                                        child_frame_id=s.odom_child_frame_id, publish_tf=s.odom_publish_tf,
                                        enabled=s.odom_rate_hz > 0)
         self._workers = [self._worker("mode_publisher", s.mode_publish_rate_hz, self.publish_mode),
+                         self._worker("mode_changes", s.mode_change_check_hz, self._publish_mode_if_changed),
                          self._worker("diagnostics", s.diagnostics_rate_hz, self._publish_diagnostics)]
         if s.odom_rate_hz > 0:
             self._workers.append(self._worker("odometry", s.odom_rate_hz, self._odom.tick))
@@ -74,16 +78,27 @@ class StatePublishers:
     # --- ~/mode ----------------------------------------------------------------------------------
     def publish_mode(self, status: MachineStatus | None = None) -> None:
         """Publish a status unless a newer one was published already: ~/mode never goes back in time."""
+        self._publish(status, only_if_changed=False)
+
+    def _publish_mode_if_changed(self) -> None:
+        self._publish(None, only_if_changed=True)
+
+    def _publish(self, status: MachineStatus | None, *, only_if_changed: bool) -> None:
         with self._publish_lock:
             status = status or self._parts.machine.status()
             if status.version < self._published_version:
                 return
-            self._published_version = status.version
-            self._publish_mode_locked(status)
+            msg = self._mode_message(status)
+            content = tuple(getattr(msg, name) for name in msg.get_fields_and_field_types() if name != "stamp")
+            if only_if_changed and content == self._published_content:
+                return
+            self._published_version, self._published_content = status.version, content
+            msg.stamp = self._node.get_clock().now().to_msg()
+            self._mode_pub.publish(msg)
 
-    def _publish_mode_locked(self, status: MachineStatus) -> None:
-        self._mode_pub.publish(ModeMsg(
-            stamp=self._node.get_clock().now().to_msg(),
+    def _mode_message(self, status: MachineStatus) -> ModeMsg:
+        driving = self._parts.cmd_vel.sources.driving(status.mode)
+        return ModeMsg(
             mode=int(status.mode),
             name=status.mode.name,
             transition_in_progress=status.transition_in_progress,
@@ -93,6 +108,8 @@ class StatePublishers:
             damp_confirmed=status.damp_confirmed,
             link_ok=self._parts.link.link_ok(status.mode),
             low_level_path=self._parts.machine.low_level_path.value,
+            driver=driving.driver.value,
+            autonomy_suspended=driving.autonomy_suspended,
             last_refusal=status.last_refusal,
             last_error=status.last_error,
             robot_mismatch=status.robot_mismatch,
@@ -100,7 +117,7 @@ class StatePublishers:
             faults=list(status.faults),
             holds=list(status.holds),
             warnings=[*self._parts.body.monitor.warnings(), *self._walk_warning()],
-        ))
+        )
 
     def _walk_warning(self) -> list[str]:
         warning = self._parts.walk.report(time.monotonic()).warning
@@ -115,6 +132,7 @@ class StatePublishers:
         array.status.extend(p.body.diagnostics(name, status.mode))
         array.status.append(self._odom.status(name))
         array.status.append(walk_status(p.walk.report(time.monotonic()), name))
+        array.status.append(drive_status(p.cmd_vel.sources.driving(status.mode), name))
         self._diag_pub.publish(array)
 
     def _mirror_sport_state(self) -> None:

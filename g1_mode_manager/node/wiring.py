@@ -52,8 +52,8 @@ class Endpoints:
     """The node's ROS side, each on threads of its own (see ModeManagerNode)."""
 
     state: StatePublishers  # ~/mode, /diagnostics, ~/sportmodestate, odom, joint_states, ~/imu
-    services: Services  # ~/set_mode, ~/loco_command, ~/clear_fault
-    streams: CommandStreams  # cmd_vel, ~/arm_cmd, ~/lowcmd
+    services: Services  # ~/set_mode, ~/loco_command, ~/clear_fault, ~/hand_over_to_autonomy, ~/take_over
+    streams: CommandStreams  # cmd_vel, the autonomy's topic, ~/arm_cmd, ~/lowcmd
     estop: EstopEndpoint  # ~/estop, /estop
 
 
@@ -64,5 +64,6 @@ def wire(node: Node, settings: Settings, port: RobotPort) -> tuple[Parts, Endpoi
     state = StatePublishers(node, settings, parts)
     changes.add(parts.wake_relay_workers)
     changes.add(state.publish_mode)
+    parts.cmd_vel.sources.on_driver_change = state.publish_mode  # a takeover is on ~/mode at once
     return parts, Endpoints(state=state, services=Services(node, parts), streams=CommandStreams(node, settings, parts),
                             estop=EstopEndpoint(node, parts.machine.estop_shot, parts.machine.estop))
