@@ -45,6 +45,10 @@ NEITHER_HELD_S: Final = 0.15
 HAND_BACK_S: Final = 0.5
 #: A set_mode or an e-stop's answer while a Move's reply is held on the robot (they must not wait for it).
 HELD_MOVE_ANSWER_S: Final = 0.05
+#: A teleop command while the autonomy drives -> ~/mode saying the teleop drives, at a subscriber.
+TAKEOVER_VISIBLE_S: Final = 0.1
+#: The autonomy's last command -> the StopMove on the robot: its timeout (the node's parameter) plus one RPC.
+ONE_RPC_S: Final = 0.05
 
 
 def check_latency(name: str, t_condition: float, t_reaction: float, goal_s: float) -> float:
@@ -71,6 +75,8 @@ CONTROLLER_STALL_S: Final = margin(1.0)
 #: step's robot call, or the node's wait for rest. The test sees the step begin on the record and sends its e-stop,
 #: which a loaded machine may delay by ~0.5 s; the node's own timeout of such a call is this plus ROUND_TRIP_S.
 STEP_HELD_S: Final = margin(2.0)
+#: How long a test watches for something that must not happen (a Move from a source that does not drive).
+QUIET_WINDOW_S: Final = margin(1.0)
 #: How long the sim's record may take to show what the robot received: its frame handlers lag their readers on a
 #: loaded machine, so a test waits for the record to show a frame rather than reading it once after a fixed time.
 RECORD_WAIT_S: Final = margin(10.0)

@@ -19,6 +19,7 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "remote_keys": ["L2", "B"],  # these keys held on the operator's remote while set
      "push": {"force": 150, "direction": [1, 0], "duration": 0.3},  # shove the pelvis, once per setting
      "freeze_lowstate": true,     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
+     "freeze_odom": true,         # stop rt/odommodestate and rt/lf/odommodestate only (a stalled state estimator)
      # user control (sport 7110/7111, newer firmware; firmware.user_ctrl):
      "user_ctrl": "from_damp",    # the firmware option from now on (absent: sim_bridge --user-ctrl's)
      "user_ctrl_delay_s": 0.05}   # s of sim time from an accepted 7110 to fsm 1000
@@ -55,7 +56,7 @@ from g1_sim.firmware.odometry import OdomErrors
 DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
 _KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed", "motor_temperature",
-                   "battery_soc", "remote_keys", "push", "freeze_lowstate", "ignore_fsm_ids", "odom_drift",
+                   "battery_soc", "remote_keys", "push", "freeze_lowstate", "freeze_odom", "ignore_fsm_ids", "odom_drift",
                    "odom_noise_m", "user_ctrl", "user_ctrl_delay_s"})
 #: odom_drift's keys and their bounds: signed scale errors, a creep speed.
 ODOM_DRIFT_BOUNDS: Final = {"xy_per_m": (-1.0, 1.0), "xy_mps": (0.0, 1.0), "yaw_per_rad": (-1.0, 1.0)}
@@ -101,6 +102,7 @@ class FaultConfig:
     remote_keys: frozenset[str] = frozenset()
     push: Push | None = None
     freeze_lowstate: bool = False
+    freeze_odom: bool = False
     ignore_fsm_ids: frozenset[int] = frozenset()
     odom: OdomErrors = field(default_factory=OdomErrors)
     user_ctrl: str | None = None  # None: the bridge's own option (--user-ctrl)
@@ -119,6 +121,7 @@ class FaultConfig:
             "remote_keys": sorted(self.remote_keys, key=KEY_NAMES.index),
             "push": None if self.push is None else self.push.to_json(),
             "freeze_lowstate": self.freeze_lowstate,
+            "freeze_odom": self.freeze_odom,
             "ignore_fsm_ids": sorted(self.ignore_fsm_ids),
             "odom_drift": {"xy_per_m": self.odom.xy_per_m, "xy_mps": self.odom.xy_mps,
                            "yaw_per_rad": self.odom.yaw_per_rad},
@@ -203,11 +206,14 @@ def parse_faults(text: str) -> FaultConfig:
     freeze = raw.get("freeze_lowstate", False)
     if not isinstance(freeze, bool):
         raise FaultConfigError(f"freeze_lowstate must be true or false, got {freeze!r}")
+    freeze_odom = raw.get("freeze_odom", False)
+    if not isinstance(freeze_odom, bool):
+        raise FaultConfigError(f"freeze_odom must be true or false, got {freeze_odom!r}")
 
     return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed,
                        motor_temperature=MappingProxyType(_motor_temperature(raw.get("motor_temperature", {}))),
                        battery_soc=_battery_soc(raw.get("battery_soc")), remote_keys=_remote_keys(raw.get("remote_keys", [])),
-                       push=_push(raw.get("push")), freeze_lowstate=freeze,
+                       push=_push(raw.get("push")), freeze_lowstate=freeze, freeze_odom=freeze_odom,
                        ignore_fsm_ids=_fsm_ids(raw.get("ignore_fsm_ids", []), "ignore_fsm_ids"),
                        odom=_odom(raw.get("odom_drift", {}), raw.get("odom_noise_m")),
                        user_ctrl=_user_ctrl_option(raw.get("user_ctrl")),
@@ -386,6 +392,10 @@ class Faults:
     @property
     def lowstate_frozen(self) -> bool:
         return self._config.freeze_lowstate
+
+    @property
+    def odom_frozen(self) -> bool:
+        return self._config.freeze_odom
 
     def take_damp_failure(self) -> bool:
         """True (and one failure used up) if this Damp must fail."""

@@ -42,7 +42,7 @@ _DESCRIPTIONS = {
     "speed": "Sim time per wall time: 1 = real time, 3 = three times faster, 0 = as fast as possible.",
     "faults": "Faults to inject, JSON: delay_s {api: s}, drop [api], error {api: code}, pause_state, damp_fails, "
               "motor_temperature {motor: [casing, winding]}, battery_soc, remote_keys [key], push {force, direction, "
-              "duration}, freeze_lowstate, ignore_fsm_ids [fsm], odom_drift {xy_per_m, xy_mps, yaw_per_rad}, "
+              "duration}, freeze_lowstate, freeze_odom, ignore_fsm_ids [fsm], odom_drift {xy_per_m, xy_mps, yaw_per_rad}, "
               "odom_noise_m, user_ctrl (none|from_damp|from_walkrun|either), user_ctrl_delay_s (docs/sim.md).",
     "publish_ros": "Publish joint_states, ~/odom (ground truth) and /clock (stamps in sim time from the start's wall time).",
     "gantry": "Hang the pelvis from a gantry's elastic band (a limp robot hangs instead of falling).",

@@ -141,7 +141,7 @@ class SimLoop:
                 pub.publish_lowstate(s, self.body, also_lf=k % self._lf_every == 0)
             if k % self._low_every == 0 and not paused:
                 pub.publish_secondary_imu(robot.torso_imu())
-            if k % self._odom_every == 0 and not paused and robot.sport_active():
+            if k % self._odom_every == 0 and not (paused or faults.odom_frozen) and robot.sport_active():
                 odom = robot.odometry()
                 lf = k % self._lf_odom_every == 0
                 pub.publish_odom(t, odom, also_lf=lf)

@@ -1,0 +1,184 @@
+"""Who drives, judged on the robot's record: a scripted planner publishing the autonomy's input at 20 Hz (as
+Nav2's controller does) beside a teleop on cmd_vel. The two are told apart on the record by their commands:
+the planner walks forward (vx only), the teleop turns (wz only).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+from g1_mode_manager_msgs.msg import Mode
+from std_srvs.srv import Trigger
+
+from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.topic_qos import MODE_QOS
+from support.mode_manager import wait_until
+from support.planner import start_planner
+from support.sim_record import is_damp, requests, velocity_of
+from support.timing import (
+    ONE_RPC_S,
+    QUIET_WINDOW_S,
+    RECORD_WAIT_S,
+    TAKEOVER_VISIBLE_S,
+    check_latency,
+)
+
+pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+AUTONOMY_MAX_VX = 0.35
+AUTONOMY_TIMEOUT_S = 0.5
+PARAMS = (f"autonomy_max_vx:={AUTONOMY_MAX_VX}", f"autonomy_timeout_s:={AUTONOMY_TIMEOUT_S}")
+PLANNER_VX = 0.6  # over the autonomy's limit: the record shows the clamp
+TELEOP_WZ = -0.6
+
+
+class ModeLog:
+    """Every ~/mode message with the monotonic time it reached the test's subscriber."""
+
+    def __init__(self, stack) -> None:
+        self.seen: list[tuple[float, Mode]] = []
+        stack.ros.node.create_subscription(Mode, stack.name("mode"),
+                                           lambda m: self.seen.append((time.monotonic(), m)), MODE_QOS)
+
+    def first(self, since: float, predicate) -> tuple[float, Mode] | None:
+        return next(((t, m) for t, m in list(self.seen) if t >= since and predicate(m)), None)
+
+    def wait(self, since: float, predicate, timeout_s: float = RECORD_WAIT_S) -> tuple[float, Mode]:
+        assert wait_until(lambda: self.first(since, predicate) is not None, timeout_s), \
+            [m for _, m in self.seen[-3:]]
+        found = self.first(since, predicate)
+        assert found is not None
+        return found
+
+
+def _trigger(stack, name: str) -> Trigger.Response:
+    return stack.ros.call(Trigger, stack.name(name), Trigger.Request())
+
+
+def _moves(stack, since: float) -> list[tuple[float, list[float]]]:
+    """(receive time, [vx, vy, wz]) of every Move (SetVelocity) the robot received since ``since``."""
+    return [(e["t"], velocity_of(e)) for e in requests(stack.record.events(since), api_ids.LOCO_SET_VELOCITY)]
+
+
+def _planner_moves(stack, since: float) -> list[tuple[float, list[float]]]:
+    return [(t, v) for t, v in _moves(stack, since) if v[0] != 0.0]
+
+
+def _walking(stack) -> None:
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+
+
+def _teleop(stack, wz: float, seconds: float) -> float:
+    """Publish the teleop's turn at 20 Hz for ``seconds``; returns the time just before its first message."""
+    pub = stack.cmd_vel_publisher()
+    from geometry_msgs.msg import Twist
+
+    msg = Twist()
+    msg.angular.z = wz
+    t0 = time.monotonic()
+    while time.monotonic() < t0 + seconds:
+        pub.publish(msg)
+        time.sleep(0.05)
+    return t0
+
+
+def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the_human_takes_over(
+        shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=PARAMS)
+    modes = ModeLog(stack)
+    _walking(stack)
+    planner = start_planner(f"{stack.ns}/cmd_vel_nav", PLANNER_VX)
+    try:
+        t0 = time.monotonic()
+        time.sleep(QUIET_WINDOW_S)
+        assert _moves(stack, t0) == [], "a Move reached the robot before the autonomy was handed it"
+        assert modes.wait(t0, lambda m: m.mode == Mode.HIGH_LEVEL)[1].driver == "teleop"
+
+        t_hand = time.monotonic()
+        r = _trigger(stack, "hand_over_to_autonomy")
+        assert r.success, r.message
+        modes.wait(t_hand, lambda m: m.driver == "autonomy")
+        assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 15, RECORD_WAIT_S)
+        autonomy = _moves(stack, t_hand)
+        assert all(0.0 < v[0] <= AUTONOMY_MAX_VX and v[1:] == [0.0, 0.0] for _, v in autonomy), autonomy
+        assert max(v[0] for _, v in autonomy) == pytest.approx(AUTONOMY_MAX_VX)  # clamped to its limit
+
+        # the human turns: the first non-zero teleop command takes over
+        result: list[float] = []
+        teleop = threading.Thread(target=lambda: result.append(_teleop(stack, TELEOP_WZ, 1.5)), daemon=True)
+        teleop.start()
+        teleop.join(10.0)
+        t_teleop = result[0]
+        t_seen, _ = modes.wait(t_teleop, lambda m: m.driver == "teleop")
+        check_latency("takeover on ~/mode", t_teleop, t_seen, TAKEOVER_VISIBLE_S)
+        moves = _moves(stack, t_hand)
+        first_teleop = next(t for t, v in moves if v[2] != 0.0)
+        after = [(t, v) for t, v in moves if t >= first_teleop]
+        assert all(v[0] == 0.0 for _, v in after), f"an autonomy Move after the teleop's first: {after[:5]}"
+        last_autonomy = max(t for t, v in moves if v[0] != 0.0)
+        print(f"takeover: teleop's first command -> last autonomy Move {1000 * (last_autonomy - t_teleop):.1f} ms, "
+              f"first teleop Move {1000 * (first_teleop - t_teleop):.1f} ms (the robot's record)")
+
+        # the planner goes on publishing: it does not get the robot back by itself
+        t_quiet = time.monotonic()
+        time.sleep(QUIET_WINDOW_S)
+        assert _planner_moves(stack, t_quiet) == []
+        assert modes.seen[-1][1].driver == "teleop"
+
+        t_again = time.monotonic()
+        assert _trigger(stack, "hand_over_to_autonomy").success
+        assert wait_until(lambda: len(_planner_moves(stack, t_again)) >= 3, RECORD_WAIT_S)
+
+        # the planner goes silent: the robot is stopped, the autonomy keeps the robot
+        t_kill = time.monotonic()
+        planner.stop()
+        assert wait_until(lambda: any(v == [0.0, 0.0, 0.0] for _, v in _moves(stack, t_kill)), RECORD_WAIT_S)
+        t_stop = next(t for t, v in _moves(stack, t_kill) if v == [0.0, 0.0, 0.0])
+        check_latency("autonomy silent -> StopMove on the robot", t_kill, t_stop, AUTONOMY_TIMEOUT_S + ONE_RPC_S)
+        assert _planner_moves(stack, t_stop) == []
+        _, silent = modes.wait(t_kill, lambda m: m.autonomy_suspended.startswith("silent"))
+        assert silent.driver == "autonomy", silent
+    finally:
+        planner.stop()
+
+
+def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=PARAMS)
+    modes = ModeLog(stack)
+    _walking(stack)
+    planner = start_planner(f"{stack.ns}/cmd_vel_nav", 0.3)
+    try:
+        t_hand = time.monotonic()
+        assert _trigger(stack, "hand_over_to_autonomy").success
+        assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
+
+        t_freeze = time.monotonic()
+        stack.set_faults({"freeze_odom": True})  # the robot's state estimator stalls; everything else goes on
+        _, suspended = modes.wait(t_freeze, lambda m: "odometry" in m.autonomy_suspended)
+        assert suspended.driver == "autonomy" and suspended.link_ok, suspended
+        assert wait_until(lambda: any(v == [0.0, 0.0, 0.0] for _, v in _moves(stack, t_freeze)), RECORD_WAIT_S)
+        t_stop = next(t for t, v in _moves(stack, t_freeze) if v == [0.0, 0.0, 0.0])
+        time.sleep(QUIET_WINDOW_S)
+        assert _planner_moves(stack, t_stop) == [], "a Move of the suspended autonomy reached the robot"
+        print(f"odometry frozen -> StopMove on the robot {1000 * (t_stop - t_freeze):.0f} ms "
+              f"(autonomy_odom_timeout_s 0.5)")
+
+        t_thaw = time.monotonic()
+        stack.set_faults({})
+        assert wait_until(lambda: len(_planner_moves(stack, t_thaw)) >= 3, RECORD_WAIT_S), "did not resume"
+        modes.wait(t_thaw, lambda m: m.driver == "autonomy" and m.autonomy_suspended == "")
+
+        t_estop = time.monotonic()
+        r = stack.estop()
+        assert r.success, r.message
+        events = stack.record.events(t_estop)
+        t_damp = next(e["t"] for e in requests(events) if is_damp(e))
+        # (a StopMove may follow: the relay stops what may still run; it moves nothing)
+        assert [(t, v) for t, v in _moves(stack, t_estop) if t > t_damp and any(v)] == []
+        assert stack.sim.get()["sport"]["fsm_id"] == 1  # damped, on the robot
+        modes.wait(t_estop, lambda m: m.mode == Mode.EMERGENCY and m.driver == "nobody")
+    finally:
+        planner.stop()
