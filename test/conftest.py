@@ -46,7 +46,8 @@ _SLOWEST_FIRST = ("test/chaos/test_chaos_second_half.py", "test/chaos/test_chaos
                   "test/e2e/test_estop_truth.py", "test/e2e/test_body.py", "test/packaging/test_colcon_build.py",
                   "test/core/test_machine_properties.py", "test/e2e/test_loco_outcome.py", "test/e2e/test_odometry.py",
                   "test/sdk/test_unitree_robot.py", "test/e2e/test_two_robots.py", "test/sim/test_robot_topics.py",
-                  "test/console/test_console_process.py", "test/e2e/test_user_ctrl_estop_steps.py", "test/e2e/test_getup.py")
+                  "test/console/test_console_process.py", "test/e2e/test_user_ctrl_estop_steps.py", "test/e2e/test_getup.py",
+                  "test/e2e/test_drivers.py")
 _HEAVY_FOLDERS = ("test/e2e/", "test/sim/", "test/chaos/", "test/packaging/")
 
 

@@ -117,6 +117,10 @@ class ManagerClient:
     def estop(self, timeout_s: float = 30.0) -> Trigger.Response:
         return self._call(Trigger, "estop", Trigger.Request(), timeout_s)
 
+    def trigger(self, name: str, timeout_s: float = 10.0) -> Trigger.Response:
+        """Call one of the manager's Trigger services, e.g. hand_over_to_autonomy, take_over, clear_fault."""
+        return self._call(Trigger, name, Trigger.Request(), timeout_s)
+
     def loco(self, command: str, value: int = 0, timeout_s: float = 20.0) -> LocoCommand.Response:
         """The default outlasts the node's longest outcome wait (loco_get_up_timeout_s, 12 s)."""
         return self._call(LocoCommand, "loco_command", LocoCommand.Request(command=command, value=value), timeout_s)

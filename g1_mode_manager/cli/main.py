@@ -1,4 +1,5 @@
-"""g1ctl: set modes, e-stop, send loco commands, drive with the keyboard, watch the mode."""
+"""g1ctl: set modes, e-stop, send loco commands, hand the robot to the autonomy and take it back, drive with the
+keyboard, watch the mode."""
 
 from __future__ import annotations
 
@@ -12,7 +13,9 @@ from g1_mode_manager.core.loco_verbs import LOCO_VERBS
 def _print_mode(msg) -> None:
     extra = f" -> {msg.transition_target}" if msg.transition_in_progress else ""
     service = "unknown" if not msg.high_level_service_known else ("active" if msg.high_level_service_active else "released")
-    line = f"{msg.name}{extra}  service={service}  link_ok={msg.link_ok}"
+    line = f"{msg.name}{extra}  service={service}  link_ok={msg.link_ok}  driver={msg.driver}"
+    if msg.autonomy_suspended:
+        line += f"  autonomy={msg.autonomy_suspended!r}"
     if msg.name == "EMERGENCY":
         line += f"  damp_confirmed={msg.damp_confirmed}"
     if msg.last_refusal:
@@ -36,6 +39,9 @@ def main(argv: list[str] | None = None) -> int:
                    help=f"{ranges} (shake_hand 0 holds the hand out, 1 withdraws it)")
     sub.add_parser("recover", help="a fallen robot up again: damp, lie_to_stand, balance_stand, each verified "
                                    "on the robot (HIGH_LEVEL; an e-stop ends it)")
+    sub.add_parser("hand-over", help="HIGH_LEVEL: the autonomy (a planner on cmd_vel_nav) drives, within its own "
+                                     "limits, until a teleop command or take-over")
+    sub.add_parser("take-over", help="the teleop (cmd_vel) drives again; the autonomy's Moves stop")
     sub.add_parser("drive", help="keyboard teleop on <namespace of --manager>/cmd_vel")
     args = parser.parse_args(argv)
 
@@ -70,6 +76,10 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         return 0 if r.success else 1
     if args.cmd == "estop":
         r = client.estop()
+        print(f"success={r.success}: {r.message}")
+        return 0 if r.success else 1
+    if args.cmd in ("hand-over", "take-over"):
+        r = client.trigger("hand_over_to_autonomy" if args.cmd == "hand-over" else "take_over")
         print(f"success={r.success}: {r.message}")
         return 0 if r.success else 1
     if args.cmd == "loco":

@@ -5,6 +5,7 @@ the planner walks forward (vx only), the teleop turns (wz only).
 
 from __future__ import annotations
 
+import subprocess
 import threading
 import time
 
@@ -16,6 +17,7 @@ from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.planner import start_planner
+from support.processes import python_module
 from support.sim_record import is_damp, requests, velocity_of
 from support.timing import (
     ONE_RPC_S,
@@ -64,6 +66,16 @@ def _moves(stack, since: float) -> list[tuple[float, list[float]]]:
 
 def _planner_moves(stack, since: float) -> list[tuple[float, list[float]]]:
     return [(t, v) for t, v in _moves(stack, since) if v[0] != 0.0]
+
+
+def _led_since(stack, t0: float) -> list[list[int]]:
+    """The colours the robot's head LED took since ``t0`` (the sim keeps each change with its receive time)."""
+    return [c["rgb"] for c in stack.sim.get()["voice"]["led_changes"] if c["t"] >= t0]
+
+
+def _cyan(rgb) -> bool:
+    r, g, b = rgb
+    return r == 0 and g == b and g > 0
 
 
 def _walking(stack) -> None:
@@ -128,8 +140,10 @@ def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the
         assert _planner_moves(stack, t_quiet) == []
         assert modes.seen[-1][1].driver == "teleop"
 
-        t_again = time.monotonic()
-        assert _trigger(stack, "hand_over_to_autonomy").success
+        t_again = time.monotonic()  # handed over again, by the operator's CLI this time
+        g1ctl = subprocess.run(python_module("g1_mode_manager.cli.main", "hand-over"), capture_output=True, text=True,
+                               timeout=60)
+        assert g1ctl.returncode == 0 and "the autonomy drives" in g1ctl.stdout, g1ctl.stdout + g1ctl.stderr
         assert wait_until(lambda: len(_planner_moves(stack, t_again)) >= 3, RECORD_WAIT_S)
 
         # the planner goes silent: the robot is stopped, the autonomy keeps the robot
@@ -154,6 +168,13 @@ def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared
         t_hand = time.monotonic()
         assert _trigger(stack, "hand_over_to_autonomy").success
         assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
+        # the head LED on the robot: the autonomy's cyan pulse (1.5 s) instead of HIGH_LEVEL's green
+        assert wait_until(lambda: any(_cyan(c) for c in _led_since(stack, t_hand)), RECORD_WAIT_S), \
+            _led_since(stack, t_hand)
+        t_cyan = next(c["t"] for c in stack.sim.get()["voice"]["led_changes"] if c["t"] >= t_hand and _cyan(c["rgb"]))
+        time.sleep(1.6)
+        shown = {tuple(c) for c in _led_since(stack, t_cyan)}
+        assert len(shown) >= 3 and all(_cyan(c) for c in shown), shown  # a pulse, and nothing but cyan
 
         t_freeze = time.monotonic()
         stack.set_faults({"freeze_odom": True})  # the robot's state estimator stalls; everything else goes on
