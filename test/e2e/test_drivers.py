@@ -203,3 +203,41 @@ def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared
         modes.wait(t_estop, lambda m: m.mode == Mode.EMERGENCY and m.driver == "nobody")
     finally:
         planner.stop()
+
+
+def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_drives_is_a_fault(
+        shared_stack_factory) -> None:
+    # no heartbeat to speak of (one every 1000 s): what reaches ~/mode came because it changed
+    stack = shared_stack_factory(node_params=(*PARAMS, "mode_publish_rate_hz:=0.001"))
+    modes = ModeLog(stack)
+    _walking(stack)
+    planner = start_planner(f"{stack.ns}/cmd_vel_nav", 0.3)
+    try:
+        t_hand = time.monotonic()
+        assert _trigger(stack, "hand_over_to_autonomy").success
+        assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
+
+        t_battery = time.monotonic()
+        stack.set_faults({"battery_soc": 15})  # low: a warning, nothing held
+        t_warned, _ = modes.wait(t_battery, lambda m: any(w.startswith("battery_low") for w in m.warnings))
+        print(f"battery low on the robot -> ~/mode warning at the test's subscriber {t_warned - t_battery:.2f} s "
+              f"(the check's debounce included)")
+
+        t_push = time.monotonic()
+        stack.set_faults({"push": {"force": 600, "direction": [1, 0], "duration": 0.3}})
+        _, fault = modes.wait(t_push, lambda m: m.mode == Mode.FAULT and m.damp_confirmed)
+        assert fault.driver == "nobody", fault
+        t_damp = next(e["t"] for e in requests(stack.record.events(t_push)) if is_damp(e))
+        assert [(t, v) for t, v in _moves(stack, t_push) if t > t_damp and any(v)] == []
+        assert stack.sim.get()["sport"]["fsm_id"] == 1
+
+        # cleared and back in HIGH_LEVEL: the teleop drives; the planner, still publishing, needs a new hand-over
+        stack.set_faults({})
+        assert wait_until(lambda: stack.clear_fault().success, RECORD_WAIT_S, period_s=0.5)
+        t_back = time.monotonic()
+        assert stack.set_mode("high_level").success
+        assert modes.wait(t_back, lambda m: m.mode == Mode.HIGH_LEVEL)[1].driver == "teleop"
+        time.sleep(QUIET_WINDOW_S)
+        assert _planner_moves(stack, t_back) == []
+    finally:
+        planner.stop()
