@@ -14,13 +14,12 @@ HIGH_LEVEL nobody drives. The rules:
   autonomy still drives, so its next command moves the robot again and nobody else's does.
 
 Every change of driver bumps ``changes``: the relay then starts its ramp again from standstill, so that no
-Move after the change carries the previous driver's velocity. Thread-safe; the caller serialises a hand-over
-against mode changes (it hands over under the forward gate).
+Move after the change carries the previous driver's velocity. Not thread-safe: its one user (relay/drive_sources.py) holds
+its own lock around every call, and serialises a hand-over against mode changes (under the forward gate).
 """
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -43,7 +42,6 @@ class Offer:
 
 class DriveArbiter:
     def __init__(self) -> None:
-        self._lock = threading.Lock()
         self._autonomy = False  # handed over, and not taken back since
         self._changes = 0
         self._last_change = ""  # what the last change was, for ~/mode and the logs
@@ -51,48 +49,42 @@ class DriveArbiter:
     @property
     def driver(self) -> Driver:
         """Who drives while the mode is HIGH_LEVEL (the caller maps other modes to NOBODY)."""
-        with self._lock:
-            return Driver.AUTONOMY if self._autonomy else Driver.TELEOP
+        return Driver.AUTONOMY if self._autonomy else Driver.TELEOP
 
     @property
     def changes(self) -> int:
-        with self._lock:
-            return self._changes
+        return self._changes
 
     @property
     def last_change(self) -> str:
-        with self._lock:
-            return self._last_change
+        return self._last_change
 
     def offer(self, source: Driver, v: Velocity) -> Offer:
         """A command from ``source`` (TELEOP or AUTONOMY): is it its driver's, and did it take over?"""
-        with self._lock:
-            if source is Driver.AUTONOMY:
-                return Offer(taken=self._autonomy)
-            if not self._autonomy:
-                return Offer(taken=True)
-            if v.is_zero():
-                return Offer(taken=False)
-            self._change_locked(False, "taken over by a teleop command")
-            return Offer(taken=True, took_over=True)
+        if source is Driver.AUTONOMY:
+            return Offer(taken=self._autonomy)
+        if not self._autonomy:
+            return Offer(taken=True)
+        if v.is_zero():
+            return Offer(taken=False)
+        self._change(False, "taken over by a teleop command")
+        return Offer(taken=True, took_over=True)
 
     def hand_over(self) -> bool:
         """The autonomy drives from now on; False if it did already."""
-        with self._lock:
-            if self._autonomy:
-                return False
-            self._change_locked(True, "handed over to the autonomy")
-            return True
+        if self._autonomy:
+            return False
+        self._change(True, "handed over to the autonomy")
+        return True
 
     def take_over(self, why: str) -> bool:
         """The teleop drives from now on; False if it did already."""
-        with self._lock:
-            if not self._autonomy:
-                return False
-            self._change_locked(False, why)
-            return True
+        if not self._autonomy:
+            return False
+        self._change(False, why)
+        return True
 
-    def _change_locked(self, autonomy: bool, why: str) -> None:
+    def _change(self, autonomy: bool, why: str) -> None:
         self._autonomy = autonomy
         self._changes += 1
         self._last_change = why

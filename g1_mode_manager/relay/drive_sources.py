@@ -51,7 +51,7 @@ class DriveSources:
         self._blocked = blocked
         self._wake = wake  # the sender looks now
         self._arbiter = DriveArbiter()
-        self._lock = threading.Lock()  # the sources' targets; the arbiter's changes as the sender saw them
+        self._lock = threading.Lock()  # the arbiter, the sources' targets, the changes as the sender saw them
         self._changes_picked = 0
         #: called (in the thread that changed it) after each change of driver, e.g. to publish ~/mode at once
         self.on_driver_change: Callable[[], None] = lambda: None
@@ -158,11 +158,11 @@ class DriveSources:
         """Who drives in ``mode`` (nobody outside HIGH_LEVEL) and why the autonomy's commands do not pass."""
         if mode is not Mode.HIGH_LEVEL:
             return Driving(Driver.NOBODY)
-        driver = self._arbiter.driver
+        with self._lock:
+            driver = self._arbiter.driver
+            command = None if self.autonomy is None else self.autonomy.target
         if driver is not Driver.AUTONOMY or self.autonomy is None:
             return Driving(driver)
-        with self._lock:
-            command = self.autonomy.target
         return Driving(driver, self.suspension(self.autonomy) or "", command)
 
     def blocked(self) -> str | None:
