@@ -17,7 +17,7 @@ from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.planner import start_planner
-from support.processes import python_module
+from support.processes import ManagedProcess, python_module
 from support.sim_record import is_damp, requests, velocity_of
 from support.timing import (
     ONE_RPC_S,
@@ -81,6 +81,21 @@ def _cyan(rgb) -> bool:
 def _walking(stack) -> None:
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
+
+
+def _autonomy_driving(stack) -> tuple[ManagedProcess, float]:
+    """Walking, a planner publishing 0.3 m/s and handed the robot, its Moves on the record; (the planner, the
+    hand-over's time)."""
+    _walking(stack)
+    planner = start_planner(f"{stack.ns}/cmd_vel_nav", 0.3)
+    try:
+        t_hand = time.monotonic()
+        assert _trigger(stack, "hand_over_to_autonomy").success
+        assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
+    except BaseException:
+        planner.stop()
+        raise
+    return planner, t_hand
 
 
 def _teleop(stack, wz: float, seconds: float) -> float:
@@ -162,12 +177,8 @@ def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the
 def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=PARAMS)
     modes = ModeLog(stack)
-    _walking(stack)
-    planner = start_planner(f"{stack.ns}/cmd_vel_nav", 0.3)
+    planner, t_hand = _autonomy_driving(stack)
     try:
-        t_hand = time.monotonic()
-        assert _trigger(stack, "hand_over_to_autonomy").success
-        assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
         # the head LED on the robot: the autonomy's cyan pulse (1.5 s) instead of HIGH_LEVEL's green
         assert wait_until(lambda: any(_cyan(c) for c in _led_since(stack, t_hand)), RECORD_WAIT_S), \
             _led_since(stack, t_hand)
@@ -210,12 +221,8 @@ def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_dr
     # no heartbeat to speak of (one every 1000 s): what reaches ~/mode came because it changed
     stack = shared_stack_factory(node_params=(*PARAMS, "mode_publish_rate_hz:=0.001"))
     modes = ModeLog(stack)
-    _walking(stack)
-    planner = start_planner(f"{stack.ns}/cmd_vel_nav", 0.3)
+    planner, _ = _autonomy_driving(stack)
     try:
-        t_hand = time.monotonic()
-        assert _trigger(stack, "hand_over_to_autonomy").success
-        assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
 
         t_battery = time.monotonic()
         stack.set_faults({"battery_soc": 15})  # low: a warning, nothing held

@@ -1,4 +1,4 @@
-"""Stand-in the relay tests share: the mode machine's gate."""
+"""Stand-ins and helpers the relay tests share: the mode machine's gate, the Moves a fake port received, steps."""
 
 from __future__ import annotations
 
@@ -48,3 +48,15 @@ class Gate:
         for listener in self.listeners:
             listener(source, target)
         self.mode, self.in_transition = target, False
+
+
+def moves(port) -> list[tuple]:
+    """The arguments of every Move (SetVelocity) the fake robot port received."""
+    return [s.args for s in port.stream("set_velocity")]
+
+
+def run_steps(relay, clock, n: int, dt: float) -> None:
+    """``n`` sender steps, the fake clock advanced ``dt`` before each."""
+    for _ in range(n):
+        clock.advance(dt)
+        relay.step()

@@ -7,7 +7,7 @@ import math
 import time
 
 import pytest
-from relay_fakes import Gate
+from relay_fakes import Gate, moves, run_steps
 
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.modes import Mode
@@ -28,13 +28,11 @@ def _relay(port, gate, events, clock, timeout_s=0.3, max_rate_hz=50.0) -> CmdVel
 
 
 def _moves(port) -> list[tuple]:
-    return [s.args for s in port.stream("set_velocity")]
+    return moves(port)
 
 
 def _run(relay, clock, n, dt=PERIOD) -> None:
-    for _ in range(n):
-        clock.advance(dt)
-        relay.step()
+    run_steps(relay, clock, n, dt)
 
 
 def test_dropped_outside_high_level_with_warning_naming_the_mode_and_never_sent_later(events, logs, clock) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import itertools
 
 import pytest
-from relay_fakes import Gate
+from relay_fakes import Gate, moves, run_steps
 
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.drive import Driver
@@ -44,13 +44,11 @@ def _relay(port, gate, events, clock, blocked=None) -> CmdVelRelay:
 
 
 def _moves(port) -> list[tuple]:
-    return [s.args for s in port.stream("set_velocity")]
+    return moves(port)
 
 
 def _run(relay, clock, n, dt=PERIOD) -> None:
-    for _ in range(n):
-        clock.advance(dt)
-        relay.step()
+    run_steps(relay, clock, n, dt)
 
 
 def _autonomy(relay, vx, vy=0.0, wz=0.0):
