@@ -63,7 +63,7 @@ class Settings:
     lowcmd_exit_damping_s: float = 0.2
     link_timeout_s: float = 0.5
     mode_publish_rate_hz: float = 1.0
-    mode_change_check_hz: float = 20.0
+    mode_change_check_hz: float = 10.0
     diagnostics_rate_hz: float = 1.0
     loco_outcome_timeout_s: float = 3.0
     loco_motion_timeout_s: float = 6.0

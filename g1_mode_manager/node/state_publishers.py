@@ -8,6 +8,7 @@ and besides at mode_publish_rate_hz; it never goes back in time.
 
 from __future__ import annotations
 
+import re
 import threading
 import time
 from collections.abc import Callable
@@ -23,6 +24,7 @@ from g1_mode_manager.node.diagnostics import build_diagnostics, drive_status, wa
 from g1_mode_manager.node.odometry import OdometryPublisher
 from g1_mode_manager.node.parts import Parts
 from g1_mode_manager.node.settings import Settings
+from g1_mode_manager.relay.drive_sources import Driving
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.topic_qos import MODE_QOS
 
@@ -36,7 +38,7 @@ class StatePublishers:
         self._parts = parts
         self._publish_lock = threading.Lock()
         self._published_version = -1
-        self._published_content: tuple[object, ...] | None = None  # every field of the last ~/mode but its stamp
+        self._published_content: tuple[object, ...] | None = None  # what the last ~/mode said (see _publish)
         self._mirrored_stamp = 0.0  # monotonic receive time of the last rt/sportmodestate mirrored
         self._mode_pub = node.create_publisher(ModeMsg, "~/mode", MODE_QOS)
         self._sport_pub = node.create_publisher(SportModeState, "~/sportmodestate", 10)
@@ -88,16 +90,19 @@ class StatePublishers:
             status = status or self._parts.machine.status()
             if status.version < self._published_version:
                 return
-            msg = self._mode_message(status)
-            content = tuple(getattr(msg, name) for name in msg.get_fields_and_field_types() if name != "stamp")
+            link_ok = self._parts.link.link_ok(status.mode)
+            driving = self._parts.cmd_vel.sources.driving(status.mode)
+            warnings = [*self._parts.body.monitor.warnings(), *self._walk_warning()]
+            # what counts as a change: a figure inside a text (an age, a measured speed) does not
+            content = (status, link_ok, driving.driver, _shape(driving.autonomy_suspended), tuple(map(_shape, warnings)))
             if only_if_changed and content == self._published_content:
                 return
             self._published_version, self._published_content = status.version, content
+            msg = self._mode_message(status, link_ok, driving, warnings)
             msg.stamp = self._node.get_clock().now().to_msg()
             self._mode_pub.publish(msg)
 
-    def _mode_message(self, status: MachineStatus) -> ModeMsg:
-        driving = self._parts.cmd_vel.sources.driving(status.mode)
+    def _mode_message(self, status: MachineStatus, link_ok: bool, driving: Driving, warnings: list[str]) -> ModeMsg:
         return ModeMsg(
             mode=int(status.mode),
             name=status.mode.name,
@@ -106,7 +111,7 @@ class StatePublishers:
             high_level_service_known=status.service_known,
             high_level_service_active=status.service_active,
             damp_confirmed=status.damp_confirmed,
-            link_ok=self._parts.link.link_ok(status.mode),
+            link_ok=link_ok,
             low_level_path=self._parts.machine.low_level_path.value,
             driver=driving.driver.value,
             autonomy_suspended=driving.autonomy_suspended,
@@ -116,7 +121,7 @@ class StatePublishers:
             reasserts=status.reasserts,
             faults=list(status.faults),
             holds=list(status.holds),
-            warnings=[*self._parts.body.monitor.warnings(), *self._walk_warning()],
+            warnings=warnings,
         )
 
     def _walk_warning(self) -> list[str]:
@@ -150,3 +155,8 @@ class StatePublishers:
         received = self._node.get_clock().now() - Duration(nanoseconds=int(state.age_s * 1e9))
         self._sport_pub.publish(SportModeState(stamp=received.to_msg(), fsm_id=state.fsm_id, fsm_mode=state.fsm_mode,
                                                task_id=state.task_id, task_time=state.task_time))
+
+
+def _shape(text: str) -> str:
+    """A text with its figures blanked: "battery_low: 18 % < 20" and "battery_low: 17 % < 20" are one warning."""
+    return re.sub(r"\d+(\.\d+)?", "#", text)
