@@ -88,11 +88,10 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         print(f"success={r.success} code={r.code}{outcome}: {r.message}")
         return 0 if r.success else 1
     if args.cmd == "recover":
-        from g1_mode_manager.cli.recover import recover
+        from g1_mode_manager.core.recovery import recover
 
-        results = recover(lambda step: client.loco(step))
-        for r in results:
-            print(f"{r.step}: success={r.success} after {r.took_s:.2f} s: {r.message}", flush=True)
+        results = recover(lambda step: client.loco(step), on_step=lambda r: print(
+            f"{r.step}: success={r.success} after {r.took_s:.2f} s: {r.message}", flush=True))
         failed = [r for r in results if not r.success]
         print(f"recover: failed at {failed[0].step}" if failed else "recover: the robot stands")
         return 1 if failed else 0

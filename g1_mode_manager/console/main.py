@@ -89,6 +89,7 @@ def _build(node: Node) -> tuple | None:
     from g1_mode_manager.console.teleop import Limits, Teleop
     from g1_mode_manager.core.loco_verbs import LOCO_VERBS
     from g1_mode_manager.core.modes import Mode
+    from g1_mode_manager.core.recovery import STEPS
 
     try:
         settings = ConsoleSettings.declare(node)
@@ -102,7 +103,8 @@ def _build(node: Node) -> tuple | None:
     teleop = Teleop(settings.heartbeat_deadline_s, settings.driver_release_s,
                     Limits(settings.max_vx, settings.max_vy, settings.max_wz))
     hello = {"modes": modes, "verbs": {n: None if v is None else [v.start, v.stop - 1] for n, v in verbs.items()},
-             "limits": {"max_vx": settings.max_vx, "max_vy": settings.max_vy, "max_wz": settings.max_wz}}
+             "limits": {"max_vx": settings.max_vx, "max_vy": settings.max_vy, "max_wz": settings.max_wz},
+             "recover_steps": list(STEPS)}
     manager = settings.manager_name(node.get_namespace())
     return node, settings, access, rules, teleop, RobotView(), manager, hello
 

@@ -7,7 +7,7 @@ counters show) and a reason. Only these exist:
   console's speed limits), ``seq`` (int). The page sends it every heartbeat period and at once on any change:
   it is the heartbeat, the page's visibility and the held keys or stick in one.
 * ``set_mode``: ``mode`` (a mode name); ``loco``: ``command`` (a loco verb), ``value`` (int, optional);
-  ``estop``; ``clear_fault``.
+  ``estop``; ``clear_fault``; ``recover`` (the recovery sequence: damp, lie_to_stand, balance_stand).
 """
 
 from __future__ import annotations
@@ -62,12 +62,19 @@ class ClearFault:
 
 
 @dataclass(frozen=True)
+class Recover:
+    pass
+
+
+@dataclass(frozen=True)
 class Refused:
     kind: str
     reason: str
 
 
-Command = Teleop | SetMode | Loco | Estop | ClearFault
+Command = Teleop | SetMode | Loco | Estop | ClearFault | Recover
+#: The commands that carry nothing but their type.
+_BARE: Final = {"estop": Estop, "clear_fault": ClearFault, "recover": Recover}
 
 
 class _BadValueError(ValueError):
@@ -114,7 +121,7 @@ class MessageRules:
         self.max_bytes = max_bytes
         self._fields = {"teleop": {"type", "visible", "focused", "vx", "vy", "wz", "seq"},
                         "set_mode": {"type", "mode"}, "loco": {"type", "command", "value"},
-                        "estop": {"type"}, "clear_fault": {"type"}}
+                        **{kind: {"type"} for kind in _BARE}}
 
     def parse(self, data: str | bytes) -> Command | Refused:
         if isinstance(data, bytes):
@@ -153,4 +160,4 @@ class MessageRules:
             if values is not None and value not in values:
                 raise _BadValueError(f"{command} takes {values.start}..{values.stop - 1}, not {value}")
             return Loco(command, value)
-        return Estop() if kind == "estop" else ClearFault()
+        return _BARE[kind]()

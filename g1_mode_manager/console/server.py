@@ -4,6 +4,7 @@ Every request passes the access rules first (a token when one is set: 401 and no
 WebSocket is a page: its messages are checked (messages.py), rate limited, and refused with a reason and a count
 when bad; good ones reach the teleop (the dead-man) or a mode manager service, whose answer every page sees. The
 state (mode, health, who drives, a plot sample) goes to every page at state_rate_hz and at once on a change.
+The Recover button's sequence (recovery.py) asks its steps through the same service call as a loco button.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from g1_mode_manager.console.bridge import RosBridge, ServiceUnavailableError, l
 from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
 from g1_mode_manager.console.page import build_page
 from g1_mode_manager.console.rate_limit import TokenBucket
+from g1_mode_manager.console.recovery import Answer, RecoveryRunner
 from g1_mode_manager.console.robot_view import RobotView
 from g1_mode_manager.console.settings import ConsoleSettings
 from g1_mode_manager.console.teleop import Teleop
@@ -81,6 +83,7 @@ class ConsoleServer:
         self._runner: web.AppRunner | None = None
         self._tasks: set[asyncio.Task] = set()
         self._state_error_at = -math.inf
+        self._recovery = RecoveryRunner(lambda step: self._ask("loco", loco_request(step, 0)), self._tell_recovery)
 
     # --- life ----------------------------------------------------------------------------------------
     def app(self) -> web.Application:
@@ -195,17 +198,23 @@ class ConsoleServer:
         elif isinstance(parsed, m.Loco):
             value = f" {parsed.value}" if parsed.value else ""
             self._call(page, "loco", loco_request(parsed.command, parsed.value), f"loco {parsed.command}{value}")
+        elif isinstance(parsed, m.Recover):
+            why_not = self._recovery.start(page.label)
+            if why_not:
+                self._refuse(page, m.Refused(m.BUSY, f"recover: {why_not}"), to="recover")
 
     def _count(self, page: _PageSocket, kind: str) -> None:
         page.refused[kind] += 1
         self.refused[kind] += 1
 
-    def _refuse(self, page: _PageSocket, refused: m.Refused) -> None:
-        """Counted at once; the page is told about a few a second (a flood must not double itself in replies)."""
+    def _refuse(self, page: _PageSocket, refused: m.Refused, to: str | None = None) -> None:
+        """Counted at once; the page is told about a few a second (a flood must not double itself in replies).
+        ``to``: the button the refusal answers, where the page shows it too."""
         self._count(page, refused.kind)
         if page.replies.take(self._clock()):
-            self._spawn(self._send(page, {"type": "refused", "kind": refused.kind, "reason": refused.reason,
-                                          "count": sum(page.refused.values())}))
+            told = {"type": "refused", "kind": refused.kind, "reason": refused.reason,
+                    "count": sum(page.refused.values())}
+            self._spawn(self._send(page, told if to is None else {**told, "to": to}))
 
     def _call(self, page: _PageSocket, service: str, request: Any, what: str) -> None:
         """One call per service and page at a time (a second one is refused as busy); every page sees the answer."""
@@ -217,24 +226,37 @@ class ConsoleServer:
 
     async def _answer(self, page: _PageSocket, service: str, request: Any, what: str) -> None:
         sent = self._clock()
-        answer: dict[str, Any] = {"type": "answer", "to": service, "request": what, "by": page.label}
         try:
-            r = await self._bridge.call(service, request, ANSWER_TIMEOUT_S[service])
-            answer.update(success=bool(r.success), message=r.message)
-            if service == "set_mode":
-                answer["mode"] = r.mode_name
-            elif service == "loco":
-                answer.update(code=int(r.code), outcome_s=float(r.outcome_s))
-        except ServiceUnavailableError as exc:
-            answer.update(success=False, message=f"not sent: {exc}")
-        except TimeoutError:
-            answer.update(success=False, message=f"no answer within {ANSWER_TIMEOUT_S[service]:g} s")
-        except Exception as exc:  # whatever went wrong, the page is told, and the console serves on
-            answer.update(success=False, message=f"not sent: {exc!r}")
+            answer = {"type": "answer", "to": service, "request": what, "by": page.label,
+                      **await self._ask(service, request)}
         finally:
             page.busy.discard(service)
         answer["after_s"] = round(self._clock() - sent, 3)
-        await asyncio.gather(*(self._send(p, answer) for p in list(self._pages.values())))
+        await self._to_every_page(answer)
+
+    async def _ask(self, service: str, request: Any) -> Answer:
+        """One call of a mode manager's service: success and message always (a call not made or not answered is a
+        failure that says why), the mode or the code and outcome_s as the node answered them."""
+        try:
+            r = await self._bridge.call(service, request, ANSWER_TIMEOUT_S[service])
+        except ServiceUnavailableError as exc:
+            return {"success": False, "message": f"not sent: {exc}"}
+        except TimeoutError:
+            return {"success": False, "message": f"no answer within {ANSWER_TIMEOUT_S[service]:g} s"}
+        except Exception as exc:  # whatever went wrong, the page is told, and the console serves on
+            return {"success": False, "message": f"not sent: {exc!r}"}
+        answer: Answer = {"success": bool(r.success), "message": r.message}
+        if service == "set_mode":
+            answer["mode"] = r.mode_name
+        elif service == "loco":
+            answer.update(code=int(r.code), outcome_s=float(r.outcome_s))
+        return answer
+
+    def _tell_recovery(self, event: dict[str, Any]) -> None:
+        self._spawn(self._to_every_page({"type": "recover", **event}))
+
+    async def _to_every_page(self, payload: dict[str, Any]) -> None:
+        await asyncio.gather(*(self._send(p, payload) for p in list(self._pages.values())))
         self.changed()
 
     # --- state out -----------------------------------------------------------------------------------
@@ -258,6 +280,7 @@ class ConsoleServer:
         common = self._view.snapshot(now)
         common.update(type="state", consoles=len(self._pages), driving=self._teleop.driving(),
                       refused=dict(self.refused), node_params=self._bridge.node_params,
+                      recovery=self._recovery.status(),
                       sample=self._view.sample(now, now - self._started, self._publisher.commanded(now)))
         sends = []
         for page in list(self._pages.values()):

@@ -17,6 +17,8 @@ LYING_TILT_RAD: Final = 1.0
 #: The verbs that stand up a robot on its feet, which a lying robot does not get up with.
 _FEET_STAND_UPS: Final = frozenset({"stand_up", "squat_to_stand"})
 LIE_TO_STAND: Final = "lie_to_stand"
+#: How a refusal of lie_to_stand begins when the robot is not lying (yet: a damped robot takes a moment to fall).
+NOT_LYING: Final = "the robot is not lying"
 
 
 def lying(tilt_rad: float | None) -> bool:
@@ -36,6 +38,6 @@ def posture_refusal(verb: str, fsm_id: int, tilt_rad: float | None) -> str | Non
     if tilt_rad is None:
         return "the robot's attitude is unknown (no state sample): lie_to_stand needs to see it lying"
     if not lying(tilt_rad):
-        return (f"the robot is not lying (tilt {tilt_rad:.2f} rad, lying is above {LYING_TILT_RAD:.1f}): "
+        return (f"{NOT_LYING} (tilt {tilt_rad:.2f} rad, lying is above {LYING_TILT_RAD:.1f}): "
                 "lie_to_stand gets a robot up from the floor; on its feet use stand_up or squat_to_stand")
     return None

@@ -1,5 +1,5 @@
 """The WebSocket protocol's input checks: every malformed, oversized, unknown or out-of-range message is refused
-with a kind, and nothing but the six known shapes gets through."""
+with a kind, and nothing but the seven known shapes gets through."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from g1_mode_manager.console.messages import (
     Estop,
     Loco,
     MessageRules,
+    Recover,
     Refused,
     SetMode,
     Teleop,
@@ -37,6 +38,7 @@ def test_the_known_messages_parse() -> None:
     assert RULES.parse('{"type": "loco", "command": "speed_mode", "value": 3}') == Loco("speed_mode", 3)
     assert RULES.parse('{"type": "estop"}') == Estop()
     assert RULES.parse('{"type": "clear_fault"}') == ClearFault()
+    assert RULES.parse('{"type": "recover"}') == Recover()
     assert RULES.parse(teleop()).held and not RULES.parse(teleop(vx=0, wz=0.0)).held
 
 
@@ -51,6 +53,7 @@ def test_the_known_messages_parse() -> None:
     ('{"type": "estop", "pad": "' + "x" * 2000 + '"}', OVERSIZED),
     ('{"type": "reboot"}', UNKNOWN),
     ('{"type": "estop", "extra": 1}', BAD_VALUE),
+    ('{"type": "recover", "steps": ["lie_to_stand"]}', BAD_VALUE),
     (teleop(vx=1.5), BAD_VALUE),
     (teleop(vx="0.5"), BAD_VALUE),
     (teleop(vx=True), BAD_VALUE),

@@ -198,3 +198,22 @@ def test_nothing_is_published_outside_high_level(console: Console, manager: Fake
     finally:
         page.close()
         manager.mode = "HIGH_LEVEL"
+
+
+def test_recover_is_told_to_every_page_and_fails_at_damp_when_the_node_serves_no_loco_command(console: Console) -> None:
+    page, other = RawPage(console.ws_url()), RawPage(console.ws_url())
+    try:
+        steps = page.wait_for(lambda m: m["type"] == "hello")["recover_steps"]
+        assert steps == ["damp", "lie_to_stand", "balance_stand"]
+        page.send({"type": "recover"})
+        end = other.wait_for(lambda m: m["type"] == "recover" and m["event"] == "done", 10.0)
+        you = page.last("hello")["you"]
+        told = [(m["event"], m.get("step")) for m in other.received if m["type"] == "recover"]
+        assert told == [("started", None), ("step", "damp"), ("result", "damp"), ("done", None)], told
+        assert end["by"] == you and not end["success"] and end["failed_step"] == "damp"
+        assert "not available" in end["message"], end  # tried (this stand-in serves no ~/loco_command), and said why
+        page.send('{"type": "recover", "steps": ["lie_to_stand"]}')
+        assert page.wait_for(lambda m: m["type"] == "refused")["kind"] == "bad_value"
+    finally:
+        other.close()
+        page.close()

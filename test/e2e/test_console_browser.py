@@ -2,12 +2,14 @@
 mode manager and the real sim, judged on the sim's record.
 
 One stack, one console and one browser for the file; the tests run in file order, each leaving the robot as the
-next expects (walking on W, then stopped, then e-stopped). Set G1_CONSOLE_SCREENSHOTS=<folder> to also save the
+next expects (walking on W, then stopped, then damped on the floor and got up by the Recover button, then
+e-stopped during a second recovery). Set G1_CONSOLE_SCREENSHOTS=<folder> to also save the
 page while driving and in EMERGENCY (the README's pictures: ``console_driving.png``, ``console_emergency.png``).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import time
@@ -20,6 +22,7 @@ from geometry_msgs.msg import Twist
 
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.protocol.fsm import BalanceMode, FsmId, FsmMode
 from support.console import (
     Console,
     RawPage,
@@ -31,7 +34,7 @@ from support.console import (
     start_console,
 )
 from support.mode_manager import wait_until
-from support.sim_record import SimRecord, damped, states, velocity_of
+from support.sim_record import SimRecord, damped, fsm_of, is_damp, requests, states, velocity_of
 
 from .conftest import Stack
 
@@ -45,6 +48,9 @@ DEADLINE_S = 0.3  # the console's heartbeat_deadline_s
 PUBLISH_PERIOD_S = 0.05  # its publish_rate_hz
 TOKEN = "operator-token-for-the-test"
 W_SPEED = 0.5 * 0.5  # the W key: half of the console's max_vx 0.5 m/s
+#: What the recovery's steps send: damp (SetFsmId 1), lie_to_stand (SetFsmId 702), balance_stand (SetBalanceMode 0).
+RECOVERY_CALLS = [(api_ids.LOCO_SET_FSM_ID, FsmId.DAMP), (api_ids.LOCO_SET_FSM_ID, FsmId.LIE_TO_STAND),
+                  (api_ids.LOCO_SET_BALANCE_MODE, BalanceMode.BALANCE_STAND)]
 
 
 @dataclass
@@ -225,7 +231,55 @@ def test_killing_the_console_while_driving_lets_the_watchdog_stop_the_robot(rig:
     r.console = start_console(f"token_file:={r.token_file}")  # the next test: a console with a token
 
 
-def test_a_wrong_token_is_refused_and_the_e_stop_damps_the_robot_and_shows_emergency(rig: Rig) -> None:
+def _lying_damped(r: Rig) -> None:
+    """Damp the robot (the test's own ~/loco_command) and wait until it lies on its back, as the sim reports it and
+    the node's body watch has seen it (it reads the attitude at its own rate)."""
+    assert r.stack.loco("damp").success
+    assert wait_until(lambda: r.stack.sim.get()["body"]["posture"] == "on_back", 10.0), r.stack.sim.get()["body"]
+    time.sleep(0.5)
+
+
+def _recovery_calls(record: SimRecord, since: float) -> list[tuple[int, int]]:
+    """SetFsmId and SetBalanceMode requests the robot received since ``since``: (api, the value asked)."""
+    return [(e["api"], fsm_of(e) if e["api"] == api_ids.LOCO_SET_FSM_ID else json.loads(e["p"])["data"])
+            for e in requests(record.events(since)) if e["api"] in (api_ids.LOCO_SET_FSM_ID, api_ids.LOCO_SET_BALANCE_MODE)]
+
+
+def test_recover_gets_a_robot_lying_damped_up_step_by_step_and_a_second_click_is_refused(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    d.get(r.console.url + f"?token={TOKEN}")  # the console the test before started, with a token
+    _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
+    _lying_damped(r)
+    t_click = _click(d, "#recover")
+    _page_shows(d, "recover-steps", lambda text: "lie_to_stand: sent" in text, 10.0)
+    _click(d, "#recover")  # again, while it runs: refused, not queued
+    refused = _page_shows(d, "recover-answer", lambda text: "REFUSED" in text, 5.0)
+    assert "already running" in refused and "lie_to_stand" in refused, refused
+    end = _page_shows(d, "recover-answer", lambda text: "the robot stands" in text or "failed at" in text, 30.0)
+    shown = _text(d, "recover-steps").splitlines()
+    print(f"the page: {end}\n  " + "\n  ".join(shown))
+    assert "the robot stands" in end, end
+    assert [line.split(":")[0] for line in shown] == ["damp", "lie_to_stand", "balance_stand"]
+    assert all(": done after " in line for line in shown), shown
+    assert _recovery_calls(r.stack.record, t_click) == RECOVERY_CALLS, "the robot got other calls than one recovery's"
+    events = r.stack.record.events(t_click)
+    sent_702 = next(e["t"] for e in requests(events, api_ids.LOCO_SET_FSM_ID) if fsm_of(e) == FsmId.LIE_TO_STAND)
+    seen = [e for e in states(events) if e["fsm"] == FsmId.LIE_TO_STAND]
+    up = min(e["t"] for e in seen if e["fsm_mode"] == FsmMode.STATIC)
+    balance = requests(events, api_ids.LOCO_SET_BALANCE_MODE)[0]["t"]
+    heights = [(e["t"], e["z"]) for e in events if e["k"] == "body"]
+    lying_z = max(z for t, z in heights if t <= sent_702)
+    standing_z = min(z for t, z in heights if t >= balance)
+    print(f"on the record: 702 {sent_702 - t_click:.2f} s after the click, standing at 702 after "
+          f"{up - t_click:.2f} s, SetBalanceMode after {balance - t_click:.2f} s; pelvis {lying_z:.2f} m lying, "
+          f"at least {standing_z:.2f} m once balanced")
+    assert any(e["fsm_mode"] == FsmMode.DYNAMIC for e in seen) and up < balance, seen
+    assert lying_z < 0.4 and standing_z > 0.7
+    assert r.stack.sim.get()["sport"]["fsm_id"] == FsmId.LIE_TO_STAND and r.stack.sim.get()["body"]["posture"] == "upright"
+    assert r.stack.modes()[-1].name == "HIGH_LEVEL", "the get-up tripped a body check"
+
+
+def test_a_wrong_token_is_refused_and_the_e_stop_preempts_a_running_recovery_and_damps_the_robot(rig: Rig) -> None:
     r, d = rig, rig.driver
     assert http_get(r.console.url + "?token=wrong")[0] == 401
     d.get(r.console.url + "?token=wrong")
@@ -233,9 +287,19 @@ def test_a_wrong_token_is_refused_and_the_e_stop_damps_the_robot_and_shows_emerg
     assert not d.find_elements("id", "estop")  # nothing of the page
     d.get(r.console.url + f"?token={TOKEN}")
     _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
+    _lying_damped(r)
+    t_recover = _click(d, "#recover")
+    getting_up = lambda: any(e["fsm"] == FsmId.LIE_TO_STAND for e in states(r.stack.record.events(t_recover)))  # noqa: E731
+    assert wait_until(getting_up, 10.0), "no get-up on the record"
+    time.sleep(1.0)  # well inside the get-up: the recovery waits for lie_to_stand's answer
     t_estop = _click(d, "#estop")
     answer = _page_shows(d, "estop-answer", lambda text: "success=" in text, 20.0)
     assert "success=true" in answer and "damped" in answer, answer
+    end = _page_shows(d, "recover-answer", lambda text: "failed at" in text, 10.0)
+    assert "failed at lie_to_stand" in end and "preempted by e-stop" in end, end
+    assert "FAILED" in _text(d, "recover-steps").splitlines()[1]
+    assert not requests(r.stack.record.events(t_recover), api_ids.LOCO_SET_BALANCE_MODE), "a step after the e-stop"
+    assert any(is_damp(e) for e in requests(r.stack.record.events(t_estop))), "no Damp after the e-stop"
     assert any(damped(s) for s in states(r.stack.record.events(t_estop))), "the robot was never damped with 'ai'"
     status = r.stack.sim.get()["sport"]
     assert status["fsm_id"] == 1 and status["mode"] == "ai"

@@ -13,6 +13,7 @@ let connected = false;
 let lastState = null;
 let history = [];
 let retryMs = 500;
+let recoverSteps = []; // the recovery's steps, from the console's hello
 
 const plots = {
   velocity: new StripChart($("plot-velocity"), {
@@ -45,6 +46,7 @@ function connect() {
     else if (msg.type === "state") onState(msg);
     else if (msg.type === "answer") onAnswer(msg);
     else if (msg.type === "refused") onRefused(msg);
+    else if (msg.type === "recover") onRecover(msg);
   };
   ws.onclose = () => {
     connected = false;
@@ -60,6 +62,7 @@ function onHello(msg) {
   $("you").textContent = `you are ${msg.you}`;
   buildModeButtons(msg.modes);
   buildLocoButtons(msg.verbs);
+  recoverSteps = msg.recover_steps || [];
   history = msg.history || [];
   teleop.start(msg.heartbeat_period_s);
 }
@@ -144,6 +147,47 @@ function onAnswer(msg) {
 
 function onRefused(msg) {
   $("refused").textContent = `the console refused ${msg.count} of your messages; last: ${msg.kind}: ${msg.reason}`;
+  if (msg.to === "recover") {
+    $("recover-answer").className = "answer bad";
+    $("recover-answer").textContent = `REFUSED: ${msg.reason}`;
+  }
+}
+
+// The recovery's steps as the console reports them to every page: asked (waiting for the robot), then the
+// node's answer verbatim. A page opened while one runs shows the steps from the next one on.
+$("recover").addEventListener("click", () => command({ type: "recover" }, "recover-answer", "recover"));
+
+function showRecoverSteps(steps) {
+  $("recover-steps").replaceChildren(...steps.map((step) => {
+    const li = document.createElement("li");
+    li.dataset.step = step;
+    li.textContent = `${step}: not sent yet`;
+    return li;
+  }));
+}
+
+function recoverStep(step) {
+  if (!$("recover-steps").children.length) showRecoverSteps(recoverSteps);
+  return $("recover-steps").querySelector(`li[data-step="${step}"]`);
+}
+
+function onRecover(msg) {
+  const box = $("recover-answer");
+  if (msg.event === "started") {
+    showRecoverSteps(msg.steps);
+    box.className = "answer";
+    box.textContent = `recover (${msg.by}): running…`;
+  } else if (msg.event === "step" && recoverStep(msg.step)) {
+    recoverStep(msg.step).className = "running";
+    recoverStep(msg.step).textContent = `${msg.step}: sent, waiting for the robot…`;
+  } else if (msg.event === "result" && recoverStep(msg.step)) {
+    const li = recoverStep(msg.step);
+    li.className = msg.success ? "ok" : "bad";
+    li.textContent = `${msg.step}: ${msg.success ? "done" : "FAILED"} after ${msg.took_s} s: ${msg.message}`;
+  } else if (msg.event === "done") {
+    box.className = `answer ${msg.success ? "ok" : "bad"}`;
+    box.textContent = `recover (${msg.by}, ${msg.took_s} s): ${msg.message}`;
+  }
 }
 
 function onState(msg) {
@@ -271,6 +315,7 @@ function render() {
     const all = Object.entries(s.refused).map(([k, v]) => `${k} ${v}`).join(", ");
     if (!$("refused").textContent.startsWith("the console refused")) $("refused").textContent = `refused (all consoles): ${all}`;
   }
+  $("recover").classList.toggle("current", !!s.recovery); // one runs (any console's)
   plots.velocity.draw(history);
   plots.tilt.draw(history);
 }

@@ -1,10 +1,11 @@
-"""g1ctl recover without ROS: the steps in order, each on its verified answer, stopping at the first failure."""
+"""The recovery sequence of g1ctl recover and the console's Recover, without ROS: the steps in order, each on its
+verified answer, stopping at the first failure, each result told as soon as it is known."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from g1_mode_manager.cli.recover import recover
+from g1_mode_manager.core.recovery import recover
 
 
 @dataclass
@@ -68,3 +69,14 @@ def test_a_robot_that_never_lies_gives_lie_to_stand_up_after_the_wait() -> None:
     results = recover(loco, clock=clock, sleep=clock.sleep, lying_wait_s=1.0)
     assert not results[-1].success and results[-1].step == "lie_to_stand" and asked.count("balance_stand") == 0
     assert asked.count("lie_to_stand") == 5  # the first ask and one every 0.25 s until 1 s had passed
+
+
+def test_each_result_is_told_before_the_next_step_is_asked() -> None:
+    asked: list[str] = []
+    told: list[tuple[str, list[str]]] = []
+    loco = _loco({"damp": [Answer(True, "damp: done")], "lie_to_stand": [Answer(True, "lie_to_stand: done")],
+                  "balance_stand": [Answer(False, "balance_stand: code 3104")]}, asked)
+    results = recover(loco, clock=Clock(), on_step=lambda r: told.append((r.step, list(asked))))
+    assert told == [("damp", ["damp"]), ("lie_to_stand", ["damp", "lie_to_stand"]),
+                    ("balance_stand", ["damp", "lie_to_stand", "balance_stand"])]
+    assert [r.step for r in results] == ["damp", "lie_to_stand", "balance_stand"] and not results[-1].success
