@@ -11,7 +11,7 @@ from g1_mode_manager.protocol.api_ids import MOVE_CONTINUOUS_DURATION_S, OK
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, JOINT_INDEX
 from g1_sim.firmware import SimG1
-from g1_sim.firmware.robot import HIGH_STAND
+from g1_sim.firmware.loco_api import HIGH_STAND
 
 pytestmark = pytest.mark.sim
 

@@ -304,8 +304,11 @@ class Bridge:
                           true_yaw=round(float(o.true_yaw), 6))
 
     def _record_state(self) -> None:
-        robot = self.robot
-        self.record.state(robot.fsm_id, robot.check_mode()[1], robot.sport_state()[1])
+        """Read under the robot's lock and recorded before it is released: the frame, RPC and loop threads all
+        record, and a state read before another thread recorded a newer one must not be written after it."""
+        robot = self.robot.current  # one robot for the whole read, though a reset may swap the slot meanwhile
+        with robot.lock:
+            self.record.state(robot.fsm_id, robot.check_mode()[1], robot.sport_state()[1])
 
     def status(self) -> dict[str, Any]:
         """Counters, sport state, base pose and real-time factor (the g1_sim status service's reply)."""

@@ -2,7 +2,8 @@
 robot standing; SwitchToInternalCtrl (7111) gives them back to a built-in controller.
 
 Pure Python (no physics): the firmware option, the preconditions of 7110, where 7111 returns, and the phase
-of a switch. :class:`~g1_sim.firmware.robot.SimG1` wires it to its controllers.
+of a switch. :mod:`~g1_sim.firmware.user_ctrl_service` answers the calls with it, and
+:mod:`~g1_sim.firmware.handover` hands the joints over.
 
 Vendor sources (unitree_sdk2 ``g1_loco_api.hpp`` / ``g1_userctrl_dds_example.cpp``, unitree-app-templates
 ``g1_mimic_demo/deploy_template``) and user reports disagree or are silent on most of it; where they are, the
