@@ -77,7 +77,8 @@ class RosBridge:
         fields = mode_fields(msg)
         self._view.on_mode(fields, time.monotonic())
         key = (fields["name"], fields["transition_in_progress"], fields["damp_confirmed"], fields["last_refusal"],
-               tuple(fields["faults"]), tuple(fields["holds"]), fields["link_ok"])
+               tuple(fields["faults"]), tuple(fields["holds"]), fields["link_ok"], fields["driver"],
+               fields["autonomy_suspended"])
         if key != self._last_mode_key:
             self._last_mode_key = key
             self._on_change()

@@ -7,6 +7,8 @@ Where each plotted value comes from, and at what rate:
 * acknowledged: the last Move the robot acknowledged, from /diagnostics (``walking`` commanded_mps, counted only
   if ``moves_sent`` grew since the previous message): diagnostics_rate_hz, 1 Hz by default;
 * measured: the robot's own odometry (``odom``, twist), odom_rate_hz (20 Hz in the launch files; none when off);
+* autonomy: the planner's latest command after the node's clamp, from /diagnostics (``driver`` autonomy_vx,
+  autonomy_vy) while the autonomy drives, suspended or not: diagnostics_rate_hz; a gap while it does not drive;
 * tilt: the pelvis IMU (``~/imu``, when joint states are on), else the odometry's attitude, else the body check's
   value in /diagnostics; all three are the angle between the body's z axis and vertical.
 """
@@ -20,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from g1_mode_manager.core.body.readings import tilt_of
+from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.display.head_led import LedLook
 
@@ -66,6 +69,7 @@ class RobotView:
     _looks: dict[str, LedLook] = field(default_factory=dict)
     _diag: _Stamped = field(default_factory=_Stamped)  # {"link": (level, message), "odometry": ..., "checks": [...]}
     _ack: _Stamped = field(default_factory=_Stamped)
+    _autonomy: _Stamped = field(default_factory=_Stamped)  # the autonomy's commanded speed (m/s) while it drives
     _moves_sent: int | None = None
     _body_tilt: _Stamped = field(default_factory=_Stamped)
     _odom: _Stamped = field(default_factory=_Stamped)  # (speed m/s, tilt rad)
@@ -102,6 +106,9 @@ class RobotView:
                 commanded = _number(walking.values.get("commanded_mps")) or 0.0
                 self._ack = _Stamped(commanded if grew else 0.0, now)
                 self._moves_sent = int(sent)
+            driver = by_name.get("driver")
+            if driver is not None:
+                self._autonomy = _Stamped(_autonomy_speed(driver.values), now)
 
     def on_odom(self, vx: float, vy: float, quaternion: tuple[float, float, float, float], now: float) -> None:
         with self._lock:
@@ -164,6 +171,7 @@ class RobotView:
                      "cmd_wz": 0.0 if commanded is None else round(commanded[2], 4),
                      "ack": self._ack.fresh(now, DIAGNOSTICS_STALE_S),
                      "meas": None if odom is None else round(odom[0], 4),
+                     "auto": self._autonomy.fresh(now, DIAGNOSTICS_STALE_S),
                      "tilt": None if tilt is None or not math.isfinite(tilt) else round(tilt, 4)}
             self._history.append(point)
             while len(self._history) > self.history_len:
@@ -187,4 +195,13 @@ def mode_fields(msg: Any) -> dict[str, Any]:
             "transition_target": target, "damp_confirmed": bool(msg.damp_confirmed), "link_ok": bool(msg.link_ok),
             "high_level_service": service, "last_refusal": msg.last_refusal, "last_error": msg.last_error,
             "robot_mismatch": msg.robot_mismatch, "reasserts": int(msg.reasserts), "faults": list(msg.faults),
-            "holds": list(msg.holds), "warnings": list(msg.warnings)}
+            "holds": list(msg.holds), "warnings": list(msg.warnings), "driver": msg.driver,
+            "autonomy_suspended": msg.autonomy_suspended}
+
+
+def _autonomy_speed(values: dict[str, str]) -> float | None:
+    """The autonomy's commanded speed in the plane (m/s) from the driver status, None unless it drives."""
+    if values.get("driver") != Driver.AUTONOMY.value:
+        return None
+    vx, vy = _number(values.get("autonomy_vx")), _number(values.get("autonomy_vy"))
+    return None if vx is None or vy is None else round(math.hypot(vx, vy), 4)

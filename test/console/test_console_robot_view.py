@@ -6,14 +6,21 @@ import math
 from types import SimpleNamespace
 
 from fakes.fake_clock import FakeClock
-from g1_mode_manager.console.robot_view import MODE_SILENT_S, DiagStatus, RobotView, mode_fields
+from g1_mode_manager.console.robot_view import (
+    DIAGNOSTICS_STALE_S,
+    MODE_SILENT_S,
+    DiagStatus,
+    RobotView,
+    mode_fields,
+)
 from g1_mode_manager.display.head_led import LedLook
 
 
 def mode_msg(name: str = "HIGH_LEVEL", value: int = 2, **overrides) -> SimpleNamespace:
     fields = dict(mode=value, name=name, transition_in_progress=False, transition_target=0,
                   high_level_service_known=True, high_level_service_active=True, damp_confirmed=False, link_ok=True,
-                  last_refusal="", last_error="", robot_mismatch="", reasserts=0, faults=[], holds=[], warnings=[])
+                  last_refusal="", last_error="", robot_mismatch="", reasserts=0, faults=[], holds=[], warnings=[],
+                  driver="teleop", autonomy_suspended="")
     fields.update(overrides)
     return SimpleNamespace(**fields)
 
@@ -77,3 +84,30 @@ def test_plot_samples_take_each_value_from_its_freshest_source() -> None:
     point = view.sample(clock(), 1.2, None)
     assert point["meas"] is None and point["tilt"] == 0.05
     assert [p["t"] for p in view.history()] == [0.1, 0.2, 1.2]  # bounded
+
+
+def driver_status(driver: str, suspended: str = "", command: tuple[float, float, float] | None = None) -> DiagStatus:
+    """The node's "driver" status: the autonomy's command only while it drives."""
+    values = {"driver": driver, "autonomy_suspended": suspended}
+    if command is not None:
+        values.update(zip(("autonomy_vx", "autonomy_vy", "autonomy_wz"), (f"{c:.3f}" for c in command), strict=True))
+    return DiagStatus("g1_mode_manager: driver", 1 if suspended else 0, f"the {driver} drives", values)
+
+
+def test_who_drives_reaches_the_page_and_the_autonomy_s_command_is_plotted_while_it_drives() -> None:
+    clock, view = FakeClock(), RobotView()
+    view.on_mode(mode_fields(mode_msg(driver="autonomy", autonomy_suspended="silent: no cmd_vel_nav for 0.5 s")),
+                 clock())
+    mode = view.snapshot(clock())["mode"]
+    assert mode["driver"] == "autonomy" and mode["autonomy_suspended"] == "silent: no cmd_vel_nav for 0.5 s"
+    assert view.sample(clock(), 0.0, None)["auto"] is None  # no driver status yet: a gap, not 0
+    view.on_diagnostics([*diagnostics(3, 0.3), driver_status("autonomy", command=(0.3, -0.4, 0.2))], clock())
+    point = view.sample(clock(), 0.1, (0.1, 0.0, 0.0))
+    assert point["auto"] == 0.5 and point["cmd"] == 0.1  # the planner's speed in the plane, beside this console's
+    view.on_diagnostics([driver_status("autonomy", "suspended: odometry 0.80 s old", (0.2, 0.0, 0.0))], clock())
+    assert view.sample(clock(), 0.2, None)["auto"] == 0.2  # suspended: its command still shown (the robot stops)
+    view.on_diagnostics([driver_status("teleop")], clock())  # taken over: the autonomy commands nothing
+    assert view.sample(clock(), 0.3, None)["auto"] is None
+    view.on_diagnostics([driver_status("autonomy", command=(0.25, 0.0, 0.0))], clock())
+    clock.advance(DIAGNOSTICS_STALE_S + 0.1)  # the node's diagnostics went silent
+    assert view.sample(clock(), 3.5, None)["auto"] is None
