@@ -67,7 +67,9 @@ class RosBridge:
         self._clients = {"set_mode": node.create_client(SetMode, f"{manager}/set_mode"),
                          "loco": node.create_client(LocoCommand, f"{manager}/loco_command"),
                          "estop": node.create_client(Trigger, f"{manager}/estop"),
-                         "clear_fault": node.create_client(Trigger, f"{manager}/clear_fault")}
+                         "clear_fault": node.create_client(Trigger, f"{manager}/clear_fault"),
+                         "hand_over": node.create_client(Trigger, f"{manager}/hand_over_to_autonomy"),
+                         "take_over": node.create_client(Trigger, f"{manager}/take_over")}
         self._params_client = node.create_client(GetParameters, f"{manager}/get_parameters")
         self._params_pending = False
         self._params_timer = node.create_timer(0.25, self._read_node_params)  # until the node answers

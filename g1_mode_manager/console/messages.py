@@ -7,7 +7,8 @@ counters show) and a reason. Only these exist:
   console's speed limits), ``seq`` (int). The page sends it every heartbeat period and at once on any change:
   it is the heartbeat, the page's visibility and the held keys or stick in one.
 * ``set_mode``: ``mode`` (a mode name); ``loco``: ``command`` (a loco verb), ``value`` (int, optional);
-  ``estop``; ``clear_fault``; ``recover`` (the recovery sequence: damp, lie_to_stand, balance_stand).
+  ``estop``; ``clear_fault``; ``recover`` (the recovery sequence: damp, lie_to_stand, balance_stand);
+  ``hand_over`` (the autonomy drives) and ``take_over`` (the teleop drives again).
 """
 
 from __future__ import annotations
@@ -67,14 +68,25 @@ class Recover:
 
 
 @dataclass(frozen=True)
+class HandOver:
+    pass
+
+
+@dataclass(frozen=True)
+class TakeOver:
+    pass
+
+
+@dataclass(frozen=True)
 class Refused:
     kind: str
     reason: str
 
 
-Command = Teleop | SetMode | Loco | Estop | ClearFault | Recover
+Command = Teleop | SetMode | Loco | Estop | ClearFault | Recover | HandOver | TakeOver
 #: The commands that carry nothing but their type.
-_BARE: Final = {"estop": Estop, "clear_fault": ClearFault, "recover": Recover}
+_BARE: Final = {"estop": Estop, "clear_fault": ClearFault, "recover": Recover, "hand_over": HandOver,
+                "take_over": TakeOver}
 
 
 class _BadValueError(ValueError):

@@ -5,6 +5,7 @@ WebSocket is a page: its messages are checked (messages.py), rate limited, and r
 when bad; good ones reach the teleop (the dead-man) or a mode manager service, whose answer every page sees. The
 state (mode, health, who drives, a plot sample) goes to every page at state_rate_hz and at once on a change.
 The Recover button's sequence (recovery.py) asks its steps through the same service call as a loco button.
+Handing the robot to the autonomy and taking it back are service calls too; the dead-man is the teleop's alone.
 """
 
 from __future__ import annotations
@@ -39,7 +40,12 @@ from g1_mode_manager.console.teleop import Teleop
 FRAME_CAP_BYTES = 64 * 1024
 #: How long a service answer may take before the page is told it timed out (s): the e-stop's bound is
 #: estop_timeout_s (10 s) plus one call; a get-up's answer waits up to loco_get_up_timeout_s (12 s).
-ANSWER_TIMEOUT_S = {"estop": 15.0, "set_mode": 30.0, "loco": 20.0, "clear_fault": 5.0}
+ANSWER_TIMEOUT_S = {"estop": 15.0, "set_mode": 30.0, "loco": 20.0, "clear_fault": 5.0, "hand_over": 5.0,
+                    "take_over": 5.0}
+#: The commands that call one of the mode manager's Trigger services: the service (the bridge's name for it) and
+#: how the answer names the request.
+TRIGGERS = {m.Estop: ("estop", "E-STOP"), m.ClearFault: ("clear_fault", "clear fault"),
+            m.HandOver: ("hand_over", "hand over to autonomy"), m.TakeOver: ("take_over", "take over")}
 #: Refusals a page is told about per second (all are counted).
 REFUSAL_REPLIES_PER_S = 5.0
 #: The heartbeat period the page is asked to keep (s): a third of the default deadline.
@@ -189,10 +195,9 @@ class ConsoleServer:
             self._refuse(page, parsed)
         elif isinstance(parsed, m.Teleop):
             self._teleop.heard(page.id, parsed, now)
-        elif isinstance(parsed, m.Estop):
-            self._call(page, "estop", trigger_request(), "E-STOP")
-        elif isinstance(parsed, m.ClearFault):
-            self._call(page, "clear_fault", trigger_request(), "clear fault")
+        elif type(parsed) in TRIGGERS:
+            service, what = TRIGGERS[type(parsed)]
+            self._call(page, service, trigger_request(), what)
         elif isinstance(parsed, m.SetMode):
             self._call(page, "set_mode", set_mode_request(parsed.mode), f"set_mode {parsed.mode}")
         elif isinstance(parsed, m.Loco):

@@ -1,5 +1,5 @@
 """The WebSocket protocol's input checks: every malformed, oversized, unknown or out-of-range message is refused
-with a kind, and nothing but the seven known shapes gets through."""
+with a kind, and nothing but the known shapes gets through."""
 
 from __future__ import annotations
 
@@ -14,11 +14,13 @@ from g1_mode_manager.console.messages import (
     UNKNOWN,
     ClearFault,
     Estop,
+    HandOver,
     Loco,
     MessageRules,
     Recover,
     Refused,
     SetMode,
+    TakeOver,
     Teleop,
 )
 
@@ -39,6 +41,8 @@ def test_the_known_messages_parse() -> None:
     assert RULES.parse('{"type": "estop"}') == Estop()
     assert RULES.parse('{"type": "clear_fault"}') == ClearFault()
     assert RULES.parse('{"type": "recover"}') == Recover()
+    assert RULES.parse('{"type": "hand_over"}') == HandOver()
+    assert RULES.parse('{"type": "take_over"}') == TakeOver()
     assert RULES.parse(teleop()).held and not RULES.parse(teleop(vx=0, wz=0.0)).held
 
 
@@ -54,6 +58,10 @@ def test_the_known_messages_parse() -> None:
     ('{"type": "reboot"}', UNKNOWN),
     ('{"type": "estop", "extra": 1}', BAD_VALUE),
     ('{"type": "recover", "steps": ["lie_to_stand"]}', BAD_VALUE),
+    ('{"type": "hand_over", "to": "nav2"}', BAD_VALUE),
+    ('{"type": "take_over", "vx": 0.5}', BAD_VALUE),
+    ('{"type": "hand_over_to_autonomy"}', UNKNOWN),  # the node's service name is not a command of the page
+    ('{"type": "HAND_OVER"}', UNKNOWN),
     (teleop(vx=1.5), BAD_VALUE),
     (teleop(vx="0.5"), BAD_VALUE),
     (teleop(vx=True), BAD_VALUE),

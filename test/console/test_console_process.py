@@ -1,5 +1,6 @@
-"""The console process on its own (no robot, no mode manager: a stand-in publishes ~/mode and takes cmd_vel),
-spoken to as a browser would over HTTP and a WebSocket: who gets in, what bad input does, who drives."""
+"""The console process on its own (no robot, no mode manager: a stand-in publishes ~/mode, takes cmd_vel and
+serves the drivers' services), spoken to as a browser would over HTTP and a WebSocket: who gets in, what bad
+input does, who drives."""
 
 from __future__ import annotations
 
@@ -214,6 +215,39 @@ def test_recover_is_told_to_every_page_and_fails_at_damp_when_the_node_serves_no
         assert "not available" in end["message"], end  # tried (this stand-in serves no ~/loco_command), and said why
         page.send('{"type": "recover", "steps": ["lie_to_stand"]}')
         assert page.wait_for(lambda m: m["type"] == "refused")["kind"] == "bad_value"
+    finally:
+        other.close()
+        page.close()
+
+
+def test_hand_over_and_take_over_call_their_services_and_a_page_that_lets_go_leaves_the_autonomy_alone(
+        console: Console, manager: FakeManager) -> None:
+    page, other = RawPage(console.ws_url()), RawPage(console.ws_url())
+    called = len(manager.called)
+    try:
+        page.wait_for(lambda m: m["type"] == "state")
+        page.send({"type": "hand_over"})
+        answer = other.wait_for(lambda m: m["type"] == "answer" and m["to"] == "hand_over")  # every page sees it
+        assert answer["success"] and answer["request"] == "hand over to autonomy", answer
+        assert answer["message"] == "stand-in hand_over_to_autonomy: the autonomy drives"
+        assert manager.called[called:] == ["hand_over_to_autonomy"]
+        assert wait_until(lambda: other.states()[-1]["mode"]["driver"] == "autonomy", 5.0)
+        # W held on a hidden page and on a blurred one: no cmd_vel (not even a zero) and no take_over
+        t_hidden = time.monotonic()
+        page.hold(vx=1.0, visible=False)
+        other.hold(vx=1.0, focused=False)
+        time.sleep(0.6)
+        assert not manager.twists.since(t_hidden) and manager.called[called:] == ["hand_over_to_autonomy"]
+        assert page.states()[-1]["mode"]["driver"] == "autonomy"
+        page.release_beat()
+        other.release_beat()
+        page.send('{"type": "take_over", "vx": 0.5}')
+        assert page.wait_for(lambda m: m["type"] == "refused")["kind"] == "bad_value"
+        page.send({"type": "take_over"})
+        answer = page.wait_for(lambda m: m["type"] == "answer" and m["to"] == "take_over")
+        assert answer["success"] and answer["message"] == "stand-in take_over: the teleop drives", answer
+        assert manager.called[called:] == ["hand_over_to_autonomy", "take_over"]
+        assert wait_until(lambda: page.states()[-1]["mode"]["driver"] == "teleop", 5.0)
     finally:
         other.close()
         page.close()

@@ -200,11 +200,14 @@ class Twists:
 
 class FakeManager:
     """The mode manager's public face and nothing else: a node named g1_mode_manager with the parameters the
-    console reads, ~/mode published at 2 Hz as told, and cmd_vel received. For console tests without a robot."""
+    console reads, ~/mode published at 2 Hz as told, cmd_vel received, and ~/hand_over_to_autonomy and
+    ~/take_over, which change ``driver`` and keep each call's name in ``called``. For console tests without a
+    robot."""
 
     def __init__(self, mode: str = "HIGH_LEVEL") -> None:
         from g1_mode_manager_msgs.msg import Mode
         from geometry_msgs.msg import Twist
+        from std_srvs.srv import Trigger
 
         from g1_mode_manager.core.modes import Mode as Modes
         from g1_mode_manager.topic_qos import MODE_QOS
@@ -218,11 +221,16 @@ class FakeManager:
         for m in Modes:
             self.node.declare_parameter(f"head_led_{m.name.lower()}", "0 255 0 pulse 2.0")
         self.mode = mode
+        self.driver = "teleop"
+        self.called: list[str] = []
         self.twists = Twists()
         self.node.create_subscription(Twist, "/cmd_vel", self.twists, 50)
         self._pub = self.node.create_publisher(Mode, "~/mode", MODE_QOS)
         self._msg_type = Mode
         self.node.create_timer(0.5, self._publish)
+        for service, driver in (("hand_over_to_autonomy", "autonomy"), ("take_over", "teleop")):
+            self.node.create_service(Trigger, f"~/{service}",
+                                     lambda _req, res, service=service, driver=driver: self._drive(service, driver, res))
         self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
@@ -231,8 +239,15 @@ class FakeManager:
     def _publish(self) -> None:
         mode = self._modes[self.mode]
         msg = self._msg_type(mode=int(mode), name=mode.name, high_level_service_known=True,
-                             high_level_service_active=True, link_ok=True)
+                             high_level_service_active=True, link_ok=True, driver=self.driver)
         self._pub.publish(msg)
+
+    def _drive(self, service: str, driver: str, response: Any) -> Any:
+        self.called.append(service)
+        self.driver = driver
+        self._publish()  # as the node does: a change of driver goes out at once
+        response.success, response.message = True, f"stand-in {service}: the {driver} drives"
+        return response
 
     def close(self) -> None:
         self._executor.shutdown()
