@@ -21,6 +21,7 @@ const plots = {
       { key: "cmd", label: "commanded", color: "#4da3ff" },
       { key: "ack", label: "acknowledged", color: "#f2c14e" },
       { key: "meas", label: "measured (odometry)", color: "#3ccf6e" },
+      { key: "auto", label: "autonomy", color: "#3fd6e0" },
     ],
   }),
   tilt: new StripChart($("plot-tilt"), {
@@ -139,7 +140,8 @@ function onAnswer(msg) {
   const verdict = `success=${msg.success}`;
   const extra = msg.to === "loco" ? ` code=${msg.code}` : "";
   const text = `${msg.request} (${msg.by}, ${msg.after_s} s): ${verdict}${extra}: ${msg.message}`;
-  const id = { estop: "estop-answer", set_mode: "mode-answer", clear_fault: "mode-answer", loco: "loco-answer" }[msg.to];
+  const id = { estop: "estop-answer", set_mode: "mode-answer", clear_fault: "mode-answer", loco: "loco-answer",
+    hand_over: "drive-answer", take_over: "drive-answer" }[msg.to];
   const box = $(id);
   box.textContent = text;
   if (id !== "estop-answer") box.className = `answer ${msg.success ? "ok" : "bad"}`;
@@ -152,6 +154,10 @@ function onRefused(msg) {
     $("recover-answer").textContent = `REFUSED: ${msg.reason}`;
   }
 }
+
+$("hand-over").addEventListener("click",
+  () => command({ type: "hand_over" }, "drive-answer", "hand over to autonomy"));
+$("take-over").addEventListener("click", () => command({ type: "take_over" }, "drive-answer", "take over"));
 
 // The recovery's steps as the console reports them to every page: asked (waiting for the robot), then the
 // node's answer verbatim. A page opened while one runs shows the steps from the next one on.
@@ -283,15 +289,28 @@ function renderHealth(s) {
   $("last-error").textContent = mode.last_error || "none";
 }
 
+// Who drives the robot (~/mode): the teleop (cmd_vel: this console, g1ctl, a joystick) or the autonomy.
+function renderDriver(mode) {
+  const box = $("driver");
+  const driver = mode ? mode.driver : "unknown";
+  const suspended = mode && mode.autonomy_suspended;
+  box.className = `driver ${suspended ? "suspended" : driver}`;
+  box.textContent = `drives: ${driver}` + (suspended ? ` (${suspended})` : "");
+}
+
+// This page's own driving; the dead-man's rules are the teleop's: a page that lets go sends nothing, which
+// leaves a driving autonomy alone.
 function renderTeleop() {
   const box = $("teleop-status");
   const t = lastState && lastState.teleop;
+  const autonomy = !!(lastState && lastState.mode && lastState.mode.driver === "autonomy");
   if (!connected) {
     box.className = "teleop-status blocked";
     box.textContent = "STOPPED: no connection to the console";
   } else if (!teleop.visible() || !teleop.focused()) {
     box.className = "teleop-status blocked";
-    box.textContent = "STOPPED: this page is hidden or not focused";
+    box.textContent = autonomy ? "NOT SENDING: this page is hidden or not focused (the autonomy drives on)"
+      : "STOPPED: this page is hidden or not focused";
   } else if (t && t.publishing) {
     box.className = "teleop-status driving";
     box.textContent = "DRIVING: cmd_vel published";
@@ -300,7 +319,8 @@ function renderTeleop() {
     box.textContent = `NOT DRIVING: ${t.why_not}`;
   } else {
     box.className = "teleop-status idle";
-    box.textContent = t && t.driver && !t.you_drive ? `${t.driver} drives` : "not driving: hold a key or the stick";
+    box.textContent = autonomy ? "the autonomy drives: hold a key or the stick, or TAKE OVER, to take it back"
+      : t && t.driver && !t.you_drive ? `${t.driver} drives` : "not driving: hold a key or the stick";
   }
 }
 
@@ -310,6 +330,7 @@ function render() {
   renderConnection();
   renderHead(s);
   renderHealth(s);
+  renderDriver(s.mode);
   renderTeleop();
   if (s.refused && Object.keys(s.refused).length) {
     const all = Object.entries(s.refused).map(([k, v]) => `${k} ${v}`).join(", ");
