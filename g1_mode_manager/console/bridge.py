@@ -26,14 +26,16 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import Imu
 from std_srvs.srv import Trigger
 
-from g1_mode_manager.console.robot_view import DiagStatus, RobotView, mode_fields
+from g1_mode_manager.console.robot_view import AUTONOMY_LOOK, DiagStatus, RobotView, mode_fields
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.display.head_led import LedLook
 from g1_mode_manager.topic_qos import MODE_QOS
 
 Velocity = tuple[float, float, float]
-#: Parameters of the mode manager the console reads (the head LED looks: head_led_<mode>).
-NODE_PARAMS = ("cmd_vel_stamped", "cmd_vel_timeout_s", *(f"head_led_{m.name.lower()}" for m in Mode))
+#: The head LED looks the console reads: each mode's (head_led_<mode>), and the autonomy's (HIGH_LEVEL while it drives).
+LED_PARAMS = {**{m.name: f"head_led_{m.name.lower()}" for m in Mode}, AUTONOMY_LOOK: "head_led_autonomy"}
+#: Parameters of the mode manager the console reads.
+NODE_PARAMS = ("cmd_vel_stamped", "cmd_vel_timeout_s", *LED_PARAMS.values())
 
 
 class ServiceUnavailableError(RuntimeError):
@@ -114,12 +116,12 @@ class RosBridge:
             return
         params = {name: _value(v) for name, v in zip(NODE_PARAMS, result.values, strict=True)}
         looks = {}
-        for m in Mode:
-            text = params.get(f"head_led_{m.name.lower()}")
+        for key, name in LED_PARAMS.items():
+            text = params.get(name)
             try:
-                looks[m.name] = LedLook.parse(text) if text else None
+                looks[key] = LedLook.parse(text) if text else None
             except ValueError:
-                looks[m.name] = None
+                looks[key] = None
         self._view.set_looks({k: v for k, v in looks.items() if v is not None})
         with self._lock:
             self.node_params = params

@@ -31,6 +31,8 @@ MODE_SILENT_S = 3.0
 #: A stream older than these no longer feeds the plots (s).
 FAST_STALE_S = 0.5
 DIAGNOSTICS_STALE_S = 3.0
+#: The key of the head LED's look in HIGH_LEVEL while the autonomy drives (beside the modes' names).
+AUTONOMY_LOOK = "autonomy"
 #: Body checks the head shows, and the check whose value each one is.
 BODY_SUMMARY = {"battery_pct": "battery_low", "winding_max_c": "winding_overheat", "casing_max_c": "casing_overheat",
                 "tilt_rad": "tilt"}
@@ -138,7 +140,7 @@ class RobotView:
     def snapshot(self, now: float) -> dict[str, Any]:
         with self._lock:
             mode, age = self._mode.value, now - self._mode.at
-            look = None if mode is None else self._looks.get(mode["name"])
+            look = None if mode is None else self._looks.get(_look_key(mode))
             diag = self._diag.fresh(now, DIAGNOSTICS_STALE_S)
         body = None
         if diag is not None and diag["checks"]:
@@ -197,6 +199,12 @@ def mode_fields(msg: Any) -> dict[str, Any]:
             "robot_mismatch": msg.robot_mismatch, "reasserts": int(msg.reasserts), "faults": list(msg.faults),
             "holds": list(msg.holds), "warnings": list(msg.warnings), "driver": msg.driver,
             "autonomy_suspended": msg.autonomy_suspended}
+
+
+def _look_key(mode: dict[str, Any]) -> str:
+    """Whose look the head LED shows: the mode's, or the autonomy's while it drives (as the node's LED does)."""
+    autonomy = mode["name"] == Mode.HIGH_LEVEL.name and mode["driver"] == Driver.AUTONOMY.value
+    return AUTONOMY_LOOK if autonomy else mode["name"]
 
 
 def _autonomy_speed(values: dict[str, str]) -> float | None:

@@ -7,6 +7,7 @@ from types import SimpleNamespace
 
 from fakes.fake_clock import FakeClock
 from g1_mode_manager.console.robot_view import (
+    AUTONOMY_LOOK,
     DIAGNOSTICS_STALE_S,
     MODE_SILENT_S,
     DiagStatus,
@@ -111,3 +112,12 @@ def test_who_drives_reaches_the_page_and_the_autonomy_s_command_is_plotted_while
     view.on_diagnostics([driver_status("autonomy", command=(0.25, 0.0, 0.0))], clock())
     clock.advance(DIAGNOSTICS_STALE_S + 0.1)  # the node's diagnostics went silent
     assert view.sample(clock(), 3.5, None)["auto"] is None
+
+
+def test_the_head_shows_the_autonomy_s_led_look_while_it_drives_in_high_level() -> None:
+    clock, view = FakeClock(), RobotView()
+    view.set_looks({"HIGH_LEVEL": LedLook.parse("0 255 0 pulse 2.0"), AUTONOMY_LOOK: LedLook.parse("0 255 255 pulse 1.5")})
+    view.on_mode(mode_fields(mode_msg()), clock())
+    assert view.snapshot(clock())["led"] == {"rgb": [0, 255, 0], "pattern": "pulse", "period_s": 2.0}
+    view.on_mode(mode_fields(mode_msg(driver="autonomy")), clock())
+    assert view.snapshot(clock())["led"] == {"rgb": [0, 255, 255], "pattern": "pulse", "period_s": 1.5}

@@ -220,6 +220,7 @@ class FakeManager:
         self.node.declare_parameter("cmd_vel_timeout_s", 0.5)
         for m in Modes:
             self.node.declare_parameter(f"head_led_{m.name.lower()}", "0 255 0 pulse 2.0")
+        self.node.declare_parameter("head_led_autonomy", "0 255 255 pulse 1.5")
         self.mode = mode
         self.driver = "teleop"
         self.called: list[str] = []
