@@ -39,10 +39,21 @@ class StripChart {
     if (!isFinite(lo)) { lo = 0; hi = this.minRange; }
     if (this.zeroBased) lo = Math.min(lo, 0);
     if (hi - lo < this.minRange) hi = lo + this.minRange;
-    const pad = { l: 42, r: 8, t: 18, b: 16 };
+    g.font = "11px system-ui, sans-serif";
+    // the legend first, in as many rows as the width needs (a phone, a narrow card)
+    const pad = { l: 42, r: 8, t: 0, b: 16 };
+    const keys = [];
+    let lx = pad.l;
+    let ly = 11;
+    for (const { label, color } of this.series) {
+      const width = g.measureText(label).width + 14;
+      if (lx > pad.l && lx + width > w - pad.r) { lx = pad.l; ly += 13; }
+      keys.push({ label, color, lx, ly });
+      lx += width + 16;
+    }
+    pad.t = ly + 7;
     const x = (t) => pad.l + ((t - start) / this.windowS) * (w - pad.l - pad.r);
     const y = (v) => h - pad.b - ((v - lo) / (hi - lo)) * (h - pad.t - pad.b);
-    g.font = "11px system-ui, sans-serif";
     g.strokeStyle = "#2a323c";
     g.fillStyle = "#8b96a5";
     g.lineWidth = 1;
@@ -51,8 +62,7 @@ class StripChart {
       g.fillText(v.toFixed(2), 2, y(v) + 4);
     }
     g.fillText(`${this.unit} · last ${this.windowS} s`, pad.l, h - 3);
-    let lx = pad.l;
-    for (const { key, label, color } of this.series) {
+    for (const { key, color } of this.series) {
       g.strokeStyle = color;
       g.lineWidth = 2;
       g.beginPath();
@@ -64,10 +74,11 @@ class StripChart {
         pen = true;
       }
       g.stroke();
+    }
+    for (const { label, color, lx: kx, ly: ky } of keys) {
       g.fillStyle = color;
-      g.fillRect(lx, 5, 10, 3);
-      g.fillText(label, lx + 14, 11);
-      lx += g.measureText(label).width + 30;
+      g.fillRect(kx, ky - 6, 10, 3);
+      g.fillText(label, kx + 14, ky);
     }
   }
 }
