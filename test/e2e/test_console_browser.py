@@ -2,9 +2,10 @@
 mode manager and the real sim, judged on the sim's record.
 
 One stack, one console and one browser for the file; the tests run in file order, each leaving the robot as the
-next expects (walking on W, then stopped, then damped on the floor and got up by the Recover button, then
-e-stopped during a second recovery). Set G1_CONSOLE_SCREENSHOTS=<folder> to also save the
-page while driving and in EMERGENCY (the README's pictures: ``console_driving.png``, ``console_emergency.png``).
+next expects (walking on W, then stopped, then driven by a planner handed the robot on the page and taken back,
+then damped on the floor and got up by the Recover button, then e-stopped during a second recovery). Set
+G1_CONSOLE_SCREENSHOTS=<folder> to also save the page while driving, while a planner drives and in EMERGENCY
+(the pictures: ``console_driving.png``, ``console_autonomy.png``, ``console_emergency.png``).
 """
 
 from __future__ import annotations
@@ -34,7 +35,9 @@ from support.console import (
     start_console,
 )
 from support.mode_manager import wait_until
+from support.planner import start_planner
 from support.sim_record import SimRecord, damped, fsm_of, is_damp, requests, states, velocity_of
+from support.timing import QUIET_WINDOW_S, RECORD_WAIT_S
 
 from .conftest import Stack
 
@@ -48,6 +51,9 @@ DEADLINE_S = 0.3  # the console's heartbeat_deadline_s
 PUBLISH_PERIOD_S = 0.05  # its publish_rate_hz
 TOKEN = "operator-token-for-the-test"
 W_SPEED = 0.5 * 0.5  # the W key: half of the console's max_vx 0.5 m/s
+#: The scripted planner walks forward and turns (within the autonomy's limits); W only walks forward, so on the
+#: record a Move that turns is the planner's and one that goes forward without turning is the page's.
+PLANNER_VX, PLANNER_WZ = 0.3, 0.3
 #: What the recovery's steps send: damp (SetFsmId 1), lie_to_stand (SetFsmId 702), balance_stand (SetBalanceMode 0).
 RECOVERY_CALLS = [(api_ids.LOCO_SET_FSM_ID, FsmId.DAMP), (api_ids.LOCO_SET_FSM_ID, FsmId.LIE_TO_STAND),
                   (api_ids.LOCO_SET_BALANCE_MODE, BalanceMode.BALANCE_STAND)]
@@ -124,10 +130,19 @@ def _moves(record: SimRecord, since: float, *, stop: bool) -> list[dict]:
             and (velocity_of(e) == [0.0, 0.0, 0.0]) == stop]
 
 
-def _shot(r: Rig, name: str) -> None:
-    if r.shots is not None:
-        r.shots.mkdir(parents=True, exist_ok=True)
-        r.driver.save_screenshot(str(r.shots / name))
+def _shot(r: Rig, name: str, height: int | None = None) -> None:
+    """Save the page as it shows now; ``height``: from its top in a window this tall (the plots too)."""
+    if r.shots is None:
+        return
+    r.shots.mkdir(parents=True, exist_ok=True)
+    size = r.driver.get_window_size()
+    if height is not None:
+        r.driver.set_window_size(size["width"], height)
+        r.driver.execute_script("window.scrollTo(0, 0)")
+        time.sleep(0.5)  # the page draws its plots again on resize
+    r.driver.save_screenshot(str(r.shots / name))
+    if height is not None:
+        r.driver.set_window_size(size["width"], size["height"])
 
 
 def _watchdog_stopped_the_robot(r: Rig, t_let_go: float, what: str) -> None:
@@ -173,7 +188,7 @@ def test_the_page_shows_the_mode_sets_high_level_starts_and_drives_on_w(rig: Rig
     _page_shows(d, "teleop-status", lambda text: text.startswith("DRIVING"), 5.0)
     assert all(vx == pytest.approx(W_SPEED) for _, vx, _, _ in r.twists.since(t_w))
     time.sleep(4.0 if r.shots else 0.5)  # a few plot points
-    _shot(r, "console_driving.png")
+    _shot(r, "console_driving.png", height=1500)
 
 
 def test_a_second_console_is_told_who_drives_and_bad_input_leaves_driving_and_node_alone(rig: Rig) -> None:
@@ -231,6 +246,89 @@ def test_killing_the_console_while_driving_lets_the_watchdog_stop_the_robot(rig:
     r.console = start_console(f"token_file:={r.token_file}")  # the next test: a console with a token
 
 
+def _velocities(record: SimRecord, since: float) -> list[tuple[float, list[float]]]:
+    """(receive time, [vx, vy, wz]) of every SetVelocity the robot received since ``since``, StopMoves included."""
+    return [(e["t"], velocity_of(e)) for e in requests(record.events(since), api_ids.LOCO_SET_VELOCITY)]
+
+
+def _planner_moves(record: SimRecord, since: float) -> list[tuple[float, list[float]]]:
+    return [(t, v) for t, v in _velocities(record, since) if v[2] != 0.0]
+
+
+def _page_moves(record: SimRecord, since: float) -> list[tuple[float, list[float]]]:
+    return [(t, v) for t, v in _velocities(record, since) if v[0] > 0.0 and v[2] == 0.0]
+
+
+def _answered(driver, what: str) -> str:
+    """The Drive card's answer to ``what`` (the click just set it to "sent, waiting"), asserted a success."""
+    answer = _page_shows(driver, "drive-answer", lambda text: text.startswith(f"{what} (") and "success=" in text, 10.0)
+    assert "success=true" in answer, answer
+    return answer
+
+
+def test_a_planner_drives_once_handed_over_on_the_page_a_hidden_page_leaves_it_and_w_takes_it_back(rig: Rig) -> None:
+    r, d = rig, rig.driver
+    d.get(r.console.url + f"?token={TOKEN}")  # the console the test before started, with a token
+    _page_shows(d, "driver", lambda text: text == "drives: teleop")
+    planner = start_planner(f"{r.stack.ns}/cmd_vel_nav", PLANNER_VX, 0.0, PLANNER_WZ)
+    try:
+        t_hand = _click(d, "#hand-over")
+        _answered(d, "hand over to autonomy")
+        _page_shows(d, "driver", lambda text: text == "drives: autonomy", 5.0)
+        colour = "return getComputedStyle(document.getElementById('mode-name')).color"
+        cyan = lambda: d.execute_script(colour) == "rgb(0, 255, 255)"  # noqa: E731
+        assert wait_until(cyan, 5.0), d.execute_script(colour)  # the head LED's look while the autonomy drives
+        assert wait_until(lambda: len(_planner_moves(r.stack.record, t_hand)) >= 5, RECORD_WAIT_S), \
+            (_text(d, "driver"), _velocities(r.stack.record, t_hand)[:5], r.stack.node.output()[-3000:])
+        assert all(v[0] > 0.0 and v[2] > 0.0 for _, v in _planner_moves(r.stack.record, t_hand))
+
+        # the page hidden: its dead-man lets go of what it sends (nothing), the planner drives on
+        t_hidden = time.monotonic()
+        set_window_state(d, "minimized")
+        time.sleep(QUIET_WINDOW_S)
+        hidden = _velocities(r.stack.record, t_hidden)
+        assert len(hidden) >= 5 and all(v[2] > 0.0 for _, v in hidden), f"the planner stopped: {hidden}"
+        set_window_state(d, "normal")
+        # its command in the velocity plot (from /diagnostics, 1 Hz), beside the measured speed
+        plotted = "return history.map((s) => s.auto).filter((v) => v !== null && v !== undefined)"
+        assert wait_until(lambda: any(abs(v - PLANNER_VX) < 1e-3 for v in d.execute_script(plotted)), 5.0), \
+            d.execute_script(plotted)
+        time.sleep(3.0 if r.shots else 0.0)  # a few plot points
+        _shot(r, "console_autonomy.png", height=1500)
+
+        # W held: the human's takeover (a non-zero cmd_vel); no planner Move after the page's first
+        t_w = _keys(d, down="w")
+        assert wait_until(lambda: bool(_page_moves(r.stack.record, t_w)), RECORD_WAIT_S), "W: no Move of the page"
+        _page_shows(d, "driver", lambda text: text == "drives: teleop", 5.0)
+        time.sleep(0.5)
+        t_up = _keys(d, up="w")
+        first_page = _page_moves(r.stack.record, t_w)[0][0]
+        late = [(t, v) for t, v in _planner_moves(r.stack.record, first_page) if t < t_up]
+        assert not late, f"planner Moves after the page's first Move: {late[:5]}"
+        last_planner = max(t for t, _ in _planner_moves(r.stack.record, t_hand) if t < first_page)
+        print(f"W pressed -> last planner Move {1000 * (last_planner - t_w):+.0f} ms, the page's first Move "
+              f"{1000 * (first_page - t_w):+.0f} ms (the robot's record)")
+
+        # handed over again once the page's W has stopped (a cmd_vel of W still on its way would take over again,
+        # as the human's command should), then TAKE OVER: a StopMove, and no planner Move after it
+        at_rest = lambda: any(v == [0.0, 0.0, 0.0] for _, v in _velocities(r.stack.record, t_up))  # noqa: E731
+        assert wait_until(at_rest, RECORD_WAIT_S), "W released: no StopMove"
+        t_again = _click(d, "#hand-over")
+        _answered(d, "hand over to autonomy")
+        assert wait_until(lambda: len(_planner_moves(r.stack.record, t_again)) >= 3, RECORD_WAIT_S), \
+            (_text(d, "driver"), _velocities(r.stack.record, t_again)[:5], r.stack.node.output()[-3000:])
+        t_take = _click(d, "#take-over")
+        _answered(d, "take over")
+        _page_shows(d, "driver", lambda text: text == "drives: teleop", 5.0)
+        stopped = lambda: next((t for t, v in _velocities(r.stack.record, t_take) if v == [0.0, 0.0, 0.0]), None)  # noqa: E731
+        assert wait_until(lambda: stopped() is not None, RECORD_WAIT_S), "TAKE OVER: no StopMove"
+        time.sleep(0.5)
+        assert _planner_moves(r.stack.record, stopped()) == [], "a planner Move after TAKE OVER's StopMove"
+        print(f"TAKE OVER clicked -> StopMove {1000 * (stopped() - t_take):.0f} ms")
+    finally:
+        planner.stop()
+
+
 def _lying_damped(r: Rig) -> None:
     """Damp the robot (the test's own ~/loco_command) and wait until it lies on its back, as the sim reports it and
     the node's body watch has seen it (it reads the attitude at its own rate)."""
@@ -247,7 +345,7 @@ def _recovery_calls(record: SimRecord, since: float) -> list[tuple[int, int]]:
 
 def test_recover_gets_a_robot_lying_damped_up_step_by_step_and_a_second_click_is_refused(rig: Rig) -> None:
     r, d = rig, rig.driver
-    d.get(r.console.url + f"?token={TOKEN}")  # the console the test before started, with a token
+    d.get(r.console.url + f"?token={TOKEN}")  # the console the test before the planner's started, with a token
     _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
     _lying_damped(r)
     t_click = _click(d, "#recover")
