@@ -4,6 +4,8 @@ robot; leaving HIGH_LEVEL needs a new hand-over."""
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 from relay_fakes import Gate
 
@@ -77,7 +79,7 @@ def test_after_the_hand_over_the_autonomy_drives_within_its_own_limits(events, c
     moves = _moves(port)
     assert moves and moves[-1][:3] == pytest.approx((0.3, -0.2, 0.5))
     assert all(abs(vx) <= 0.3 and abs(vy) <= 0.2 and abs(wz) <= 0.5 for vx, vy, wz, _ in moves)
-    steps = [b[0] - a[0] for a, b in zip(moves, moves[1:], strict=False)]
+    steps = [b[0] - a[0] for a, b in itertools.pairwise(moves)]
     assert max(steps) <= AUTONOMY.max_ax * PERIOD + 1e-9  # its own acceleration limit
     assert events.counts()["autonomy_clamped"] == 40
 
