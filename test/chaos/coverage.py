@@ -117,6 +117,8 @@ class Coverage:
         why = []
         if self.missing():
             why.append(f"cells never hit: {self.missing()}")
+        if missed := [c for c in DRIVE_REQUIRED if self.features[c] == 0]:
+            why.append(f"drive cells never hit: {missed}")
         if self.after_connect() < AFTER_CONNECT_GOAL:
             why.append(f"only {100 * self.after_connect():.0f} % of e-stops after the first connect")
         return why
@@ -138,6 +140,9 @@ class Coverage:
             runs = sum(landing.path == path for landing in self.landings)
             lines.append(f"chaos coverage: {path} path: {runs} scenarios, {len(REQUIRED) - len(self.missing(path))} of "
                          f"{len(REQUIRED)} cells hit; missed {self.missing(path)}")
-        if self.features:
-            lines.append("chaos coverage: " + ", ".join(f"{k} {v}" for k, v in sorted(self.features.items())))
+        lines.append("chaos coverage: who drives, scenarios in which it happened:")
+        label = max(len(cell) for cell in DRIVE_CELLS) + 2
+        lines += [f"  {cell.ljust(label)}{self.features[cell]:>6}" for cell in DRIVE_CELLS]
+        if others := sorted((k, v) for k, v in self.features.items() if k not in DRIVE_CELLS):
+            lines.append("chaos coverage: " + ", ".join(f"{k} {v}" for k, v in others))
         return "\n".join(lines)

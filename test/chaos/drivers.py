@@ -249,8 +249,8 @@ def drive_cells(events: list[Event], modes: list[tuple[float, Any]], log: DriveL
         cells.append(FAULT_WHILE_AUTONOMY)
     claimed = [m for t, m in modes if t < t_estop]
     last = [(t, s) for t, s in labels if t < t_estop][-1:]
-    if claimed and claimed[-1].driver == "autonomy" and last and last[0][1] == PLANNER \
-            and t_estop - last[0][0] < DRIVING_WITHIN_S:
+    if claimed and claimed[-1].driver == "autonomy" and _in_high_level(claimed[-1]) and last \
+            and last[0][1] == PLANNER and t_estop - last[0][0] < DRIVING_WITHIN_S:
         cells.append(ESTOP_WHILE_AUTONOMY)
     return cells
 
