@@ -236,8 +236,9 @@ def drive_cells(events: list[Event], modes: list[tuple[float, Any]], log: DriveL
     if any(c.success and "already" not in c.message for c in log.take_overs):
         cells.append(TAKE_OVER_SERVICE)
     silent = [t for t, m in modes if m.autonomy_suspended.startswith("silent")]
-    if any(a == PLANNER and b == STOP and any(abs(t - tb) < DRIVING_WITHIN_S for t in silent)
-           for (_, a), (tb, b) in itertools.pairwise(labels)):  # the planner drove, fell silent, the robot stopped
+    # the planner drove, fell silent, the robot stopped (not the moment after a hand-over, before its first command)
+    if any(a == PLANNER and b == STOP and any(ta < t < tb + DRIVING_WITHIN_S for t in silent)
+           for (ta, a), (tb, b) in itertools.pairwise(labels)):
         cells.append(AUTONOMY_SILENT)
     if any(m.autonomy_suspended.startswith("suspended") for _, m in modes):
         cells.append(AUTONOMY_SUSPENDED)

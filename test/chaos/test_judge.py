@@ -286,6 +286,10 @@ def test_drive_cells_name_what_the_scenario_showed() -> None:
     events = [*_planner(5.0), *_teleop(6.0), *_planner(9.0, 5), *_move(10.0, (0.0, 0.0, 0.0)), *_planner(19.0)]
     cells = drive_cells(sorted(events, key=lambda e: e["t"]), modes, log, t_estop=20.0)
     assert cells == [HAND_OVER, HAND_OVER_REFUSED, TAKEOVER_BY_TELEOP, AUTONOMY_SILENT, ESTOP_WHILE_AUTONOMY], cells
+    # "silent" the moment after a hand-over, before the planner's first command reached the node, is no silence
+    transient = [(9.012, _drive_mode(driver="autonomy", suspended=silent)) if t == 10.0 else (t, m) for t, m in modes]
+    cells = drive_cells(sorted(events, key=lambda e: e["t"]), transient, log, t_estop=20.0)
+    assert AUTONOMY_SILENT not in cells, cells
     # the autonomy driving when a set_mode leaves HIGH_LEVEL, then a take-over that took the robot, no e-stop cell
     modes += [(19.8, _drive_mode(transition=True, target=IDLE, driver="autonomy")), (19.9, _drive_mode(IDLE, "nobody"))]
     log.take_overs.append(Call(19.6, 19.61, True, "the teleop drives; the autonomy needs a new hand-over"))
