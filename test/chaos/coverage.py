@@ -10,7 +10,7 @@ happen and is not required.
 Who drives has cells of its own, each a scenario in which it happened on the robot's record or the node's
 ``~/mode`` (drivers.drive_cells): the planner handed the robot and its Moves on the record, a hand-over refused,
 a teleop Move taking over from the planner's, ``~/take_over`` taking the robot back, the planner falling silent
-(a StopMove after its Moves), the autonomy suspended by its conditions, HIGH_LEVEL left for IDLE or LOW_LEVEL
+after its Moves reached the robot, the autonomy suspended by its conditions, HIGH_LEVEL left for IDLE or LOW_LEVEL
 and FAULT entered while the autonomy drove, and the e-stop going out while the planner's Moves drove the robot.
 """
 

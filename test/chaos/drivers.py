@@ -235,10 +235,12 @@ def drive_cells(events: list[Event], modes: list[tuple[float, Any]], log: DriveL
         cells.append(TAKEOVER_BY_TELEOP)
     if any(c.success and "already" not in c.message for c in log.take_overs):
         cells.append(TAKE_OVER_SERVICE)
+    # the planner's Moves reached the robot under a hand-over, then it fell silent: not the moment after a hand-over,
+    # before its first command reached the node
+    handed = [c.sent for c in log.hand_overs if c.success]
     silent = [t for t, m in modes if m.autonomy_suspended.startswith("silent")]
-    # the planner drove, fell silent, the robot stopped (not the moment after a hand-over, before its first command)
-    if any(a == PLANNER and b == STOP and any(ta < t < tb + DRIVING_WITHIN_S for t in silent)
-           for (ta, a), (tb, b) in itertools.pairwise(labels)):
+    if any(s == PLANNER and max((h for h in handed if h < t_s), default=t_s) < t < t_s
+           for t_s in silent for t, s in driving):
         cells.append(AUTONOMY_SILENT)
     if any(m.autonomy_suspended.startswith("suspended") for _, m in modes):
         cells.append(AUTONOMY_SUSPENDED)
@@ -248,10 +250,10 @@ def drive_cells(events: list[Event], modes: list[tuple[float, Any]], log: DriveL
         cells.append(LEFT_WHILE_AUTONOMY)
     if FAULT in left:
         cells.append(FAULT_WHILE_AUTONOMY)
-    claimed = [m for t, m in modes if t < t_estop]
+    claimed = [m for t, m in modes if t < t_estop][-1:]
     last = [(t, s) for t, s in labels if t < t_estop][-1:]
-    if claimed and claimed[-1].driver == "autonomy" and _in_high_level(claimed[-1]) and last \
-            and last[0][1] == PLANNER and t_estop - last[0][0] < DRIVING_WITHIN_S:
+    if claimed and _in_high_level(claimed[0]) and claimed[0].driver == "autonomy" and not claimed[0].autonomy_suspended \
+            and last and last[0][1] == PLANNER and t_estop - last[0][0] < DRIVING_WITHIN_S:
         cells.append(ESTOP_WHILE_AUTONOMY)
     return cells
 

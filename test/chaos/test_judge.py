@@ -290,6 +290,11 @@ def test_drive_cells_name_what_the_scenario_showed() -> None:
     transient = [(9.012, _drive_mode(driver="autonomy", suspended=silent)) if t == 10.0 else (t, m) for t, m in modes]
     cells = drive_cells(sorted(events, key=lambda e: e["t"]), transient, log, t_estop=20.0)
     assert AUTONOMY_SILENT not in cells, cells
+    # a robot that refuses Moves is owed no StopMove: the planner's Moves just end; the e-stop while it is silent
+    refused = [(1.0, _drive_mode()), (9.02, _drive_mode(driver="autonomy")),
+               (19.9, _drive_mode(driver="autonomy", suspended=silent))]
+    cells = drive_cells(_planner(19.0, 10), refused, log, t_estop=20.0)
+    assert AUTONOMY_SILENT in cells and ESTOP_WHILE_AUTONOMY not in cells, cells
     # the autonomy driving when a set_mode leaves HIGH_LEVEL, then a take-over that took the robot, no e-stop cell
     modes += [(19.8, _drive_mode(transition=True, target=IDLE, driver="autonomy")), (19.9, _drive_mode(IDLE, "nobody"))]
     log.take_overs.append(Call(19.6, 19.61, True, "the teleop drives; the autonomy needs a new hand-over"))
