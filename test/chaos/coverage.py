@@ -6,6 +6,12 @@ first connect). The columns are the operators' own outstanding requests, seen fr
 sent and not yet answered, a loco command likewise, a stream being published, or nothing. Several can be in
 flight at once; each counts. A transition is itself a mode call in flight, so ``->X`` x nothing cannot
 happen and is not required.
+
+Who drives has cells of its own, each a scenario in which it happened on the robot's record or the node's
+``~/mode`` (drivers.drive_cells): the planner handed the robot and its Moves on the record, a hand-over refused,
+a teleop Move taking over from the planner's, ``~/take_over`` taking the robot back, the planner falling silent
+after its Moves reached the robot, the autonomy suspended by its conditions, HIGH_LEVEL left for IDLE or LOW_LEVEL
+and FAULT entered while the autonomy drove, and the e-stop going out while the planner's Moves drove the robot.
 """
 
 from __future__ import annotations
@@ -19,6 +25,20 @@ ROWS = ("UNINITIALIZED", "IDLE", "HIGH_LEVEL", "LOW_LEVEL", "FAULT", "->IDLE", "
 COLUMNS = ("nothing", "mode call", "loco command", "stream")
 #: Every cell a batch must hit: all but a transition with nothing in flight.
 REQUIRED = tuple((r, c) for r in ROWS for c in COLUMNS if not (r.startswith("->") and c == "nothing"))
+HAND_OVER = "hand-over, planner Moves"
+HAND_OVER_REFUSED = "hand-over refused"
+TAKEOVER_BY_TELEOP = "takeover by teleop"
+TAKE_OVER_SERVICE = "take_over service"
+AUTONOMY_SILENT = "planner silent"
+AUTONOMY_SUSPENDED = "autonomy suspended"
+LEFT_WHILE_AUTONOMY = "set_mode out of HIGH_LEVEL, autonomy driving"
+FAULT_WHILE_AUTONOMY = "FAULT, autonomy driving"
+ESTOP_WHILE_AUTONOMY = "e-stop, autonomy driving"
+DRIVE_CELLS = (HAND_OVER, HAND_OVER_REFUSED, TAKEOVER_BY_TELEOP, TAKE_OVER_SERVICE, AUTONOMY_SILENT, AUTONOMY_SUSPENDED,
+               LEFT_WHILE_AUTONOMY, FAULT_WHILE_AUTONOMY, ESTOP_WHILE_AUTONOMY)
+#: Those a batch must hit (the autonomy's conditions suspend it, and a body check trips while it drives, only as
+#: the robot happens to fail them).
+DRIVE_REQUIRED = tuple(c for c in DRIVE_CELLS if c not in (AUTONOMY_SUSPENDED, FAULT_WHILE_AUTONOMY))
 #: The share of e-stops that must land after the node's first connect, in a batch of 100 or more.
 AFTER_CONNECT_GOAL = 0.7
 
@@ -97,6 +117,8 @@ class Coverage:
         why = []
         if self.missing():
             why.append(f"cells never hit: {self.missing()}")
+        if missed := [c for c in DRIVE_REQUIRED if self.features[c] == 0]:
+            why.append(f"drive cells never hit: {missed}")
         if self.after_connect() < AFTER_CONNECT_GOAL:
             why.append(f"only {100 * self.after_connect():.0f} % of e-stops after the first connect")
         return why
@@ -118,6 +140,9 @@ class Coverage:
             runs = sum(landing.path == path for landing in self.landings)
             lines.append(f"chaos coverage: {path} path: {runs} scenarios, {len(REQUIRED) - len(self.missing(path))} of "
                          f"{len(REQUIRED)} cells hit; missed {self.missing(path)}")
-        if self.features:
-            lines.append("chaos coverage: " + ", ".join(f"{k} {v}" for k, v in sorted(self.features.items())))
+        lines.append("chaos coverage: who drives, scenarios in which it happened:")
+        label = max(len(cell) for cell in DRIVE_CELLS) + 2
+        lines += [f"  {cell.ljust(label)}{self.features[cell]:>6}" for cell in DRIVE_CELLS]
+        if others := sorted((k, v) for k, v in self.features.items() if k not in DRIVE_CELLS):
+            lines.append("chaos coverage: " + ", ".join(f"{k} {v}" for k, v in others))
         return "\n".join(lines)

@@ -3,6 +3,9 @@
 Every request and stream is registered in an ``InFlight`` from just before it is sent until it is answered
 or ends, so the scenario knows what was in flight when its e-stop went out. A node killed mid-scenario
 leaves requests unanswered: every call has a timeout short enough for the scenario to go on.
+
+Who drives: the hand-overs and take-overs are logged with when they were sent and answered, and the planner's
+streams with their first and last message (drivers.DriveLog), for the judge.
 """
 
 from __future__ import annotations
@@ -12,15 +15,25 @@ import time
 from typing import Any
 
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from std_srvs.srv import Trigger
 
 from chaos.coverage import InFlight
+from chaos.drivers import TELEOP_VX, Call, DriveLog
 from chaos.plan import SETUP, STREAMS, Plan
+from harness.rate import run_at_rate
+from support.planner import RATE_HZ as PLANNER_RATE_HZ
 
 #: The longest any operator call waits for its answer, s (a transition with injected delays takes < 10 s).
 CALL_TIMEOUT_S = 15.0
 _COLUMN_OF = {"mode": "mode call", "loco": "loco command", **dict.fromkeys(STREAMS, "stream")}
 #: How long the setup asks again (every 0.5 s) for a mode it was refused, s: within the aim's deadline.
 SETUP_RETRY_S = 7.0
+#: ... and for a hand-over refused for want of the robot's odometry (not there yet just after HIGH_LEVEL), every
+#: HAND_OVER_RETRY_PERIOD_S, s; other refusals (a hold, another mode) stand.
+HAND_OVER_RETRY_S = 1.0
+HAND_OVER_RETRY_PERIOD_S = 0.1
+#: The services of who drives, by action.
+_DRIVE_SERVICES = {"hand_over": "hand_over_to_autonomy", "take_over": "take_over"}
 _STREAM_RATE_HZ = {"drive": 50.0, "arm": 50.0, "lowcmd": 100.0}
 
 
@@ -28,12 +41,15 @@ class Operators:
     """Runs a plan's actions against ``stack``; ``row_reached`` starts a stream column, ``send_column`` sends a
     request column."""
 
-    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event) -> None:
+    def __init__(self, stack: Any, p: Plan, in_flight: InFlight, stop: threading.Event, drives: DriveLog) -> None:
         self._stack = stack
         self._plan = p
         self._in_flight = in_flight
         self._stop = stop
+        self._drives = drives
+        self._planner_off = threading.Event()  # the planner falls silent for the rest of the scenario
         self.row_reached = threading.Event()
+        self.setup_done = threading.Event()  # the setup's last step is done
         self.node_back = threading.Event()  # the node was restarted (or never killed)
         #: the noise is over and the node the setup talks to is settled: the e-stop's thread replaced one the noise
         #: left in EMERGENCY (scenario_run), so the setup never sends to a node being stopped
@@ -63,14 +79,24 @@ class Operators:
                 return
             reply = self.act(kind, arg)
             # a setup's mode request refused (the noise's transition still in progress, or a FAULT the noise
-            # caused after the settling) is asked again, or the aimed row is never reached
+            # caused after the settling) is asked again, or the aimed row is never reached; not when the node is
+            # in that mode already
             until = time.monotonic() + SETUP_RETRY_S
-            while k == SETUP and kind == "mode" and reply is not None and not reply.success:
+            while (k == SETUP and kind == "mode" and reply is not None and not reply.success
+                   and reply.mode_name.lower() != arg):
                 if time.monotonic() > until or self._stop.wait(0.5):
                     break
                 if fault_claimed():
                     self._clear(fault_claimed)
                 reply = self.act(kind, arg)
+            until = time.monotonic() + HAND_OVER_RETRY_S
+            while (k == SETUP and kind == "hand_over" and reply is not None and reply.success is False
+                   and "odometry" in reply.message):
+                if time.monotonic() > until or self._stop.wait(HAND_OVER_RETRY_PERIOD_S):
+                    break
+                reply = self.act(kind, arg)
+        if k == SETUP:
+            self.setup_done.set()
 
     def _settle(self, t0: float, fault_claimed: Any) -> bool:
         """Before the setup: wait for the restarted node, then undo the noise's body faults and clear them."""
@@ -124,8 +150,13 @@ class Operators:
         client.call_async(request).add_done_callback(lambda _f: self._in_flight.end(column))
         return True
 
+    def send_race(self, kind: str) -> None:
+        """A hand-over or a take-over sent without waiting for its answer: the e-stop follows at once."""
+        self._drive_call(kind, wait=False)
+
     def act(self, kind: str, arg: Any) -> Any:
-        """Do one action; a mode request's reply (None if unanswered), else None."""
+        """Do one action; a mode request's reply or a hand-over's or take-over's Call (None if unanswered), else
+        None."""
         column = _COLUMN_OF.get(kind)
         if kind == "mode":
             self.mode_calls.append(time.monotonic())
@@ -150,9 +181,13 @@ class Operators:
             if arg["lasts"] is not None and not self._stop.wait(arg["lasts"]):
                 stack.set_faults(self._plan.faults)
         elif kind == "clear":
-            from std_srvs.srv import Trigger
-
             ros.call(Trigger, stack.name("clear_fault"), Trigger.Request(), CALL_TIMEOUT_S, 5.0)
+        elif kind in _DRIVE_SERVICES:
+            return self._drive_call(kind, wait=True)
+        elif kind == "planner":
+            self._planner(float(arg))
+        elif kind == "planner_off":
+            self._planner_off.set()
         elif kind in STREAMS:
             _stream(stack, kind, float(arg or 0.5), self._stop)
         elif kind == "pause":  # the setup waits in the row it reached before its next step
@@ -160,16 +195,66 @@ class Operators:
         return None
 
 
+    def _drive_call(self, kind: str, *, wait: bool) -> Call | None:
+        """Call ``~/hand_over_to_autonomy`` or ``~/take_over`` and log it; its Call, or None if the node was not
+        there to send it to (killed)."""
+        client = self._stack.ros.client(Trigger, self._stack.name(_DRIVE_SERVICES[kind]))
+        if not client.wait_for_service(timeout_sec=5.0):
+            return None
+        call = Call(time.monotonic())
+        (self._drives.hand_overs if kind == "hand_over" else self._drives.take_overs).append(call)
+        done = threading.Event()
+
+        def answered(future: Any) -> None:
+            if future.exception() is None:
+                call.success, call.message = future.result().success, future.result().message
+                call.answered = time.monotonic()
+            done.set()
+
+        client.call_async(Trigger.Request()).add_done_callback(answered)
+        if wait:
+            done.wait(CALL_TIMEOUT_S)
+        return call
+
+    def _planner(self, seconds: float) -> None:
+        """Publish the planner's command on the autonomy's topic at Nav2's rate for ``seconds`` (or until it falls
+        silent, or the scenario stops), logging the stream's first and last message."""
+        from geometry_msgs.msg import Twist
+
+        msg = Twist()
+        msg.linear.x, msg.linear.y, msg.angular.z = self._plan.planner_command
+        pub = _publisher(self._stack, Twist, f"{self._stack.ns}/cmd_vel_nav")
+        end = time.monotonic() + seconds
+        span: list[float] = []
+
+        def publish() -> bool:
+            if time.monotonic() >= end or self._planner_off.is_set():
+                return False
+            pub.publish(msg)
+            if not span:
+                span.extend((time.monotonic(), time.monotonic()))
+                self._drives.planner_streams.append(span)
+            span[1] = time.monotonic()
+            return True
+
+        run_at_rate(PLANNER_RATE_HZ, publish, self._stop)
+
+
 _PUBLISHERS: dict[tuple[int, str], Any] = {}
+
+
+def _publisher(stack: Any, msg_type: Any, topic: str) -> Any:
+    """The test's publisher on ``topic``, made once (a publisher destroyed while the client spins may kill it)."""
+    key = (id(stack.ros.node), topic)
+    if key not in _PUBLISHERS:
+        _PUBLISHERS[key] = stack.ros.node.create_publisher(msg_type, topic, 10)
+    return _PUBLISHERS[key]
 
 
 def _stream(stack: Any, kind: str, seconds: float, stop: threading.Event) -> None:
     """Publish on /cmd_vel, ``~/arm_cmd`` or ``~/lowcmd`` for ``seconds`` (or until ``stop``)."""
     topic, msg = _message(stack, kind)
-    key = (id(stack.ros.node), topic)
-    if key not in _PUBLISHERS:
-        _PUBLISHERS[key] = stack.ros.node.create_publisher(type(msg), topic, 10)
-    pub = _PUBLISHERS[key]
+    pub = _publisher(stack, type(msg), topic)
     end = time.monotonic() + seconds
     period = 1.0 / _STREAM_RATE_HZ[kind]
     while time.monotonic() < end and not stop.is_set():
@@ -182,7 +267,7 @@ def _message(stack: Any, kind: str) -> tuple[str, Any]:
         from geometry_msgs.msg import Twist
 
         msg = Twist()
-        msg.linear.x = 0.3
+        msg.linear.x = TELEOP_VX
         return f"{stack.ns}/cmd_vel", msg
     if kind == "arm":
         from sensor_msgs.msg import JointState

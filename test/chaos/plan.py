@@ -16,6 +16,16 @@ here or does not implement it), the switch takes a random time to show fsm 1000 
 waits), SwitchToUserCtrl and SwitchToInternalCtrl answer late, and the transitions aimed at include the ways out
 of LOW_LEVEL (to HIGH_LEVEL and to IDLE), with the user's stream stopping before them (silence).
 
+Both sources of the Move stream drive in the scenarios: the teleop (/cmd_vel, the "drive" stream) and a planner
+publishing the autonomy's cmd_vel_nav at 20 Hz with a command of its own shape (drivers.py), which passes only
+once an operator handed it the robot. The noise hands over, takes over (``~/take_over`` and the teleop's
+commands) and runs the planner at random instants, racing the mode requests; a setup aimed at HIGH_LEVEL plays a
+*script* of the two, each in turn by seed (the planner driving at the e-stop, a teleop takeover, a take_over
+service call, the planner falling silent), and the e-stop waits for it; a setup that leaves HIGH_LEVEL (to IDLE,
+LOW_LEVEL or FAULT) often hands over first, so that the autonomy drives when it is left; and some e-stops go
+out together with a hand-over or a take-over. These draws come from a random generator of their own, so a seed's
+other draws are what they were before.
+
 Everything random comes from the seed, so a failure is replayed with `make chaos SEED=<seed> N=1`.
 """
 
@@ -59,6 +69,29 @@ SETUP, COLUMN = 3, 4
 #: On the user_ctrl path, a user's controller streaming ~/lowcmd from the setup's start on (silence hands the robot
 #: back within lowcmd_timeout_s: LOW_LEVEL lasts only while someone streams).
 USER_STREAM = 5
+#: The planner, publishing the autonomy's input (cmd_vel_nav) beside the operators.
+PLANNER = 6
+#: Who drives, in the noise: hand-overs, take-overs, the teleop's commands (a takeover while the planner drives), the
+#: planner's streams; with these weights.
+DRIVE_KINDS = ("hand_over", "hand_over", "take_over", "drive", "planner")
+#: A planner stream in the noise lasts this long, s; the setup's runs until the scenario ends.
+PLANNER_S = (0.5, 3.0)
+#: The planner's command, drawn per scenario: ahead, to the left and turning right (the shape the judge knows it
+#: by), at times past the autonomy's limits (0.5 m/s, 0.3 m/s, 0.8 rad/s) so that its clamps are judged.
+PLANNER_COMMAND = ((0.2, 0.7), (0.05, 0.4), (-1.0, -0.1))
+#: A setup aimed at HIGH_LEVEL plays one of these, in turn by seed; the e-stop waits until it has played. As
+#: connected the robot is in no walking fsm and refuses Moves (the node's ramp stays at its first step); "autonomy"
+#: starts it walking first.
+SCRIPTS = ("autonomy", "teleop", "take_over", "silent")
+#: ... a setup that leaves HIGH_LEVEL hands over first this often.
+LEAVE_HANDED_OVER = 0.6
+#: A hand-over or a take-over sent together with the e-stop, this often.
+RACES = ("hand_over", "take_over")
+RACE_SHARE = 0.2
+#: The planner's silence in the "silent" script: past autonomy_timeout_s (0.5 s) and ~/mode's change check, s.
+SILENCE_S = 0.8
+#: Separates the drive draws' generator from the plan's.
+DRIVE_SALT = 0xD21BE
 #: A body fault that puts every mode in FAULT: a winding at 140 °C (past the 135 °C critical limit).
 FAULT_HEAT = {"motor_temperature": {"4": [70, 140]}}
 
@@ -80,6 +113,9 @@ class Plan:
     second_via: str = "service"
     path: str = "release"  # low_level_path: "release" or "user_ctrl"
     node_params: tuple[str, ...] = ()  # the scenario's node's parameters (its path, its reaction to silence)
+    planner_command: tuple[float, float, float] = (0.4, 0.2, -0.5)  # what the planner publishes (vx, vy, wz)
+    script: str | None = None  # what the setup does with the two sources: one of SCRIPTS, "leave", or None
+    race: str | None = None  # "hand_over" or "take_over": sent together with the e-stop
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -123,6 +159,56 @@ def _noise(rng: random.Random, length: str) -> tuple[list[tuple[float, int, str,
     actions.sort(key=lambda a: a[0])
     end = max((a[0] for a in actions), default=0.0)
     return actions, end + (0.3 if actions else 0.05)
+
+
+def _drive_noise(rng: random.Random, noise: list[tuple[float, int, str, Any]],
+                 length: str) -> list[tuple[float, int, str, Any]]:
+    """Who drives, in the noise's span: hand-overs, take-overs and teleop commands from the noise's clients, and the
+    planner, either publishing all along or in a few streams."""
+    if not noise:
+        return []
+    end, clients = noise[-1][0], LENGTHS[length][3]
+    actions: list[tuple[float, int, str, Any]] = []
+    if rng.random() < 0.5:
+        start = round(rng.uniform(0.05, min(1.0, end)), 3)
+        actions.append((start, PLANNER, "planner", round(end - start + rng.uniform(*PLANNER_S), 2)))
+    for _ in range(rng.randint(0, max(1, len(noise) // 3))):
+        kind, at = rng.choice(DRIVE_KINDS), round(rng.uniform(0.05, end), 3)
+        if kind == "planner":
+            actions.append((at, PLANNER, kind, round(rng.uniform(*PLANNER_S), 2)))
+        else:
+            actions.append((at, rng.randrange(clients), kind, round(rng.uniform(0.3, 1.5), 2) if kind == "drive" else ""))
+    return actions
+
+
+def _script(script: str, rng: random.Random) -> list[tuple[float, str, Any]]:
+    """The steps a setup aimed at HIGH_LEVEL takes once there (after its mode request)."""
+    def pause(lo: float, hi: float) -> tuple[float, str, Any]:
+        return (0.0, "pause", round(rng.uniform(lo, hi), 3))
+
+    handed = [(0.0, "hand_over", ""), pause(0.1, 0.3)]  # the planner's Moves reach the robot within 0.1 s
+    if script == "teleop":  # the teleop takes the robot; the planner drives again only once handed it again
+        return [*handed, (0.0, "drive", round(rng.uniform(0.15, 0.3), 2)), *handed]
+    if script == "take_over":
+        return [*handed, (0.0, "take_over", ""), pause(0.1, 0.3), *handed]
+    if script == "silent":
+        return [*handed, (0.0, "planner_off", ""), (0.0, "pause", SILENCE_S)]
+    # the robot walking (its Moves acknowledged: the autonomy's ramp judged), the planner up to speed (0.5 s)
+    return [(0.0, "loco", "start"), (0.0, "hand_over", ""), pause(0.2, 0.8)]
+
+
+def _with_drivers(setup: list[tuple[float, str, Any]], row: str, seed: int,
+                  rng: random.Random) -> tuple[list[tuple[float, str, Any]], str | None]:
+    """The setup with who drives in it, and its script: aimed at HIGH_LEVEL, a script in turn by seed (mixed with
+    the cell, so that every window of a few cell lists plays each on the row's cells); through HIGH_LEVEL to
+    another row, often a hand-over right after HIGH_LEVEL was reached."""
+    if row == "HIGH_LEVEL":
+        script = SCRIPTS[(seed // len(REQUIRED) + seed % len(REQUIRED)) % len(SCRIPTS)]
+        return [*setup, *_script(script, rng)], script
+    at = [i for i, (_, kind, arg) in enumerate(setup) if (kind, arg) == ("mode", "high_level")]
+    if not at or at[0] == len(setup) - 1 or row == "->HIGH_LEVEL" or rng.random() >= LEAVE_HANDED_OVER:
+        return setup, None
+    return [*setup[:at[0] + 1], (setup[at[0]][0], "hand_over", ""), *setup[at[0] + 1:]], "leave"
 
 
 def _delay(delays: dict[str, Any], rng: random.Random, *apis: int) -> None:
@@ -231,12 +317,21 @@ def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS), paths: tuple[str,
         through_low = ("mode", "low_level") in [(kind, arg) for _, kind, arg in setup] and row != "->LOW_LEVEL"
         faults |= {"user_ctrl": "either" if through_low else rng.choice(FIRMWARES),
                    "user_ctrl_delay_s": round(rng.uniform(*USER_CTRL_DELAY_S) * (0.6 if through_low else 1.0), 3)}
-    actions = [*noise, *((round(setup_at + dt, 3), SETUP, kind, arg) for dt, kind, arg in setup)]
+    drive_rng = random.Random(seed ^ DRIVE_SALT)
+    setup, script = _with_drivers(setup, row, seed, drive_rng)
+    actions = [*noise, *_drive_noise(drive_rng, noise, length),
+               *((round(setup_at + dt, 3), SETUP, kind, arg) for dt, kind, arg in setup)]
     if stream_s is not None:
         actions.append((setup_at, USER_STREAM, "lowcmd", stream_s))
+    if script is not None:  # the planner publishes from the setup's start to the scenario's end
+        actions.append((setup_at, PLANNER, "planner", AIM_DEADLINE_S + 5.0))
+    actions.sort(key=lambda a: a[0])
+    command = tuple(round(drive_rng.uniform(*span), 2) for span in PLANNER_COMMAND)
+    race = drive_rng.choice(RACES) if drive_rng.random() < RACE_SHARE else None
     node_params = (f"low_level_path:={path}", *(["user_ctrl_silence:=damp"] if damp_on_silence else []))
     second = round(rng.uniform(0.0, 1.5), 3) if rng.random() < 0.25 else None
     vias = ["service", "service", "topic_reliable", "topic_best_effort"]
     return Plan(seed, faults, actions, aim, _column_action(column, row, rng), setup_at, rng.choice(vias), damp_fails,
                 length=length, gantry=_gantry(row, rng, setup), kill_at=kill_at, second_estop_after=second,
-                second_via=rng.choice(vias), path=path, node_params=node_params)
+                second_via=rng.choice(vias), path=path, node_params=node_params,
+                planner_command=(command[0], command[1], command[2]), script=script, race=race)

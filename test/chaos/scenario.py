@@ -15,6 +15,7 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
+from chaos.drivers import DriveLog, judge_drivers, judge_ramps
 from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.protocol import api_ids
 from support.sim_record import Event, damped, fsm_of, is_damp, requests, states, velocity_of
@@ -24,7 +25,6 @@ from support.sim_record import Event, damped, fsm_of, is_damp, requests, states,
 FAULT_DAMPED_S = 12.0
 #: The node's stream limits (defaults of config/mode_manager.yaml), for the judge.
 ARM_STEP = 1.0 / (2.0 * 50.0)  # arm_ramp_time_s 2 s at 50 Hz: the most the weight may change per frame
-MOVE_STEP = (1.5 * 0.05, 1.0 * 0.05, 3.0 * 0.05)  # max_ax, max_ay, max_awz times one 20 Hz tick
 #: The soonest a node started after a SIGKILL can publish its first ``~/mode``, s (a process start and
 #: rclpy's import alone take longer).
 SUCCESSOR_EARLIEST_S = 0.3
@@ -46,6 +46,7 @@ class Claims:
     #: (SIGKILLed at, the fresh node's first mode request sent at, or inf) of each restart
     restarts: list[tuple[float, float]] = field(default_factory=list)
     modes: list[tuple[float, Any]] = field(default_factory=list)  # (t, Mode msg)
+    drives: DriveLog = field(default_factory=DriveLog)  # the hand-overs, take-overs and planner streams
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -113,6 +114,8 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any], path: 
         bad += _judge_streams(events, history, life, killed_at=hi)
         bad += _judge_faults(events, history, life, killed_at=hi)
     bad += _judge_restarts(events, claims.restarts)
+    bad += judge_drivers(events, modes, claims.drives, claims.restarts, GRACE_S)
+    bad += judge_ramps(events, claims.drives)
     return bad
 
 
@@ -215,8 +218,8 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
 
 def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[float, Any]],
                    killed_at: float = float("inf")) -> list[str]:
-    """The stream invariants (arm weight ramps, Move steps, no user frames outside LOW_LEVEL), on what the robot
-    received. A node's life ends at ``killed_at``: the frames after it are its successor's, judged in that life."""
+    """The stream invariants (arm weight ramps, no user frames outside LOW_LEVEL), on what the robot received (the
+    Moves: drivers.py). A node's life ends at ``killed_at``: the frames after it are its successor's, judged in that life."""
     bad: list[str] = []
     accepting = (4, 500, 501, 801, 802)
 
@@ -248,14 +251,4 @@ def _judge_streams(events: list[Event], history: list[Event], modes: list[tuple[
         if late:
             bad.append(f"user lowcmd frame (kp {late[0]['kp_max']}) {late[0]['t'] - t_left:.3f} s after leaving LOW_LEVEL")
             break
-    previous = (0.0, 0.0, 0.0)
-    for e in events:
-        if e.get("api") != api_ids.LOCO_SET_VELOCITY:
-            continue
-        if e["k"] == "done" and e["code"] == 0:
-            v = velocity_of(e) or [0.0, 0.0, 0.0]
-            if any(v) and any(abs(a - b) > step + 1e-6 for a, b, step in zip(v, previous, MOVE_STEP, strict=True)):
-                bad.append(f"Move {v} after {list(previous)}: above the acceleration limit")
-                break
-            previous = (v[0], v[1], v[2])
     return bad

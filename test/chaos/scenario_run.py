@@ -21,12 +21,13 @@ from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
 from chaos.coverage import Coverage, InFlight, Landing, row_of
+from chaos.drivers import DriveLog, drive_cells
 from chaos.operators import Operators
-from chaos.plan import AIM_DEADLINE_S, Plan
+from chaos.plan import AIM_DEADLINE_S, SCRIPTS, Plan
 from chaos.scenario import Claims, judge
 from support.mode_manager import wait_until
 from support.processes import ManagedProcess
-from support.sim_record import SimRecord
+from support.sim_record import Event, SimRecord
 
 SETTLE_S = 12.0  # after the faults clear, supervision must get the robot damped within this
 #: After the e-stop the operators go on this long (nothing they send may reach the robot), s.
@@ -47,14 +48,15 @@ class ScenarioRun:
         self.landing: Landing | None = None
         self.timing: dict[str, float] = {}  # s from the scenario's start: aimed, answered, operators, damped
         self.renewed = False  # a node left in EMERGENCY by the noise was replaced before the setup
+        self.features: list[str] = []  # what the scenario exercised (coverage.Coverage.features)
 
     def run(self, latencies: list[float], coverage: Coverage) -> list[str]:
         p, stack = self.plan, self.stack
-        claims = self.ends.claims = Claims()
+        claims = self.ends.claims = Claims(drives=DriveLog(planner_command=p.planner_command))
         estop_pub = self.ends.estop_pubs.get(p.estop_via)
         stop = threading.Event()
         in_flight = InFlight()
-        ops = Operators(stack, p, in_flight, stop)
+        ops = Operators(stack, p, in_flight, stop, claims.drives)
         try:
             stack.sim.reset()
             stack.ros.wait_node_answers(f"{stack.ns}/g1_mode_manager")
@@ -70,6 +72,8 @@ class ScenarioRun:
             landing = self.landing = self._aim(t0, ops, in_flight, claims)
             landing.path = p.path
             self.timing["aimed"] = time.monotonic() - t0
+            if p.race is not None:
+                ops.send_race(p.race)
             self._estop(p.estop_via, claims, first=True)
             self.timing["answered"] = time.monotonic() - t0
             if p.second_estop_after is not None:
@@ -88,7 +92,8 @@ class ScenarioRun:
             end_state = stack.sim.get()
             alive = stack.node.alive()
             events = stack.record.after_last_reset()
-            coverage.add(landing, self._features(claims))
+            self.features = self._features(claims, events)
+            coverage.add(landing, self.features)
             with claims.lock:
                 claims.restarts = [(t_kill, next((t for t in ops.mode_calls if t > t_kill), float("inf")))
                                    for t_kill, _ in claims.restarts]
@@ -123,13 +128,14 @@ class ScenarioRun:
         assert pub is None or wait_until(lambda: pub.get_subscription_count() >= 1, 10.0)
         deadline = max(t0 + p.setup_at, time.monotonic()) + AIM_DEADLINE_S
         sent = False
+        scripted = p.script in SCRIPTS  # the row is reached once the setup's script has played there
         while time.monotonic() < deadline:
             if not ops.node_checked.is_set() and time.monotonic() >= t0 + p.setup_at and ops.node_back.is_set():
                 # here, in the thread that sends the e-stop, so that it never goes to a node being replaced
                 if self._renew_latched(claims):
                     deadline = max(deadline, time.monotonic() + AIM_DEADLINE_S)
                 ops.node_checked.set()
-            if _row(claims) == row:
+            if _row(claims) == row and (not scripted or ops.setup_done.is_set()):
                 ops.row_reached.set()
                 if column in in_flight.columns():
                     break
@@ -227,10 +233,11 @@ class ScenarioRun:
                 f"{ros.node.count_services(f'{name}/estop')}, {fresh}; node output:\n{node.output()[-3000:]}"
                 f"{_stacks(node.proc.pid) if node.alive() else ''}")
 
-    def _features(self, claims: Claims) -> list[str]:
+    def _features(self, claims: Claims, events: list[Event]) -> list[str]:
         p = self.plan
         with claims.lock:
-            modes = [m for _, m in claims.modes]
+            claimed = list(claims.modes)
+        modes = [m for _, m in claimed]
         return [f"{p.length} scenarios",
                 *(["second e-stops"] if p.second_estop_after is not None else []),
                 *(["node SIGKILLed and restarted"] if p.kill_at is not None else []),
@@ -238,7 +245,9 @@ class ScenarioRun:
                 *(["FAULT entered"] if any(m.mode == Mode.FAULT for m in modes) else []),
                 *(["holds"] if any(m.holds for m in modes) else []),
                 *(["hung in the gantry"] if p.gantry else []),
-                *(["user control damping on silence"] if "user_ctrl_silence:=damp" in p.node_params else [])]
+                *(["user control damping on silence"] if "user_ctrl_silence:=damp" in p.node_params else []),
+                *([f"{p.race} with the e-stop"] if p.race is not None else []),
+                *drive_cells(events, claimed, claims.drives, claims.t_estop)]
 
 
 def _row(claims: Claims) -> str:

@@ -3,9 +3,10 @@
 One bridge serves the whole batch (reset to its boot state between scenarios); every scenario starts a
 fresh node (EMERGENCY is latched), injects random per-request delays on CheckMode / SelectMode /
 ReleaseMode / SetFsmId (0-3 s, so in-flight calls land in every order), failing Damps, random mode
-requests, loco commands, streams and body faults from several clients, sometimes a SIGKILL and restart of
-the node, then aims its e-stop at one coverage cell (plan.py, coverage.py) through the service or the topic
-(reliable or best effort), sometimes followed by a second one. Scenarios alternate LOW_LEVEL's two paths
+requests, loco commands, streams and body faults from several clients, both sources of the Move stream (the
+teleop on cmd_vel and a planner on cmd_vel_nav, with hand-overs and take-overs between them), sometimes a SIGKILL
+and restart of the node, then aims its e-stop at one coverage cell (plan.py, coverage.py) through the service or
+the topic (reliable or best effort), sometimes followed by a second one. Scenarios alternate LOW_LEVEL's two paths
 (release and user control; G1_CHAOS_PATHS keeps one), each node started with its scenario's. See scenario.judge for
 the invariants.
 
@@ -15,7 +16,8 @@ G1_CHAOS_PARTS parts (default 2: seeds split in consecutive ranges, each part wi
 table, then its last line:
 `chaos: N scenarios, V violations, U unclean exits` (U: nodes that did not exit 0 within 5 s of SIGINT; their
 output, with the faulthandler's stacks, is kept beside the summary). A part of 100 scenarios or more also
-fails when its coverage falls short (every cell hit, 70 % of e-stops after the first connect).
+fails when its coverage falls short (every cell hit, every required cell of who drives, 70 % of e-stops after the
+first connect).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
-from chaos.coverage import Coverage
+from chaos.coverage import DRIVE_CELLS, Coverage
 from chaos.plan import PATHS as ALL_PATHS
 from chaos.plan import plan
 from chaos.scenario import Claims
@@ -129,8 +131,10 @@ def test_chaos_batch(sdk_channels: int, tmp_path: Path, first_seed: int, count: 
                                   restart=functools.partial(_start_in, ns, p.node_params))
                 t_run = time.monotonic()
                 bad = run.run(latencies, coverage)
+                drives = [cell for cell in run.features if cell in DRIVE_CELLS]
                 print(f"chaos seed {seed}: {run.plan.length}, {run.plan.path}, aimed at {run.plan.aim}, landed in {run.landing}, "
-                      f"{time.monotonic() - t_run:.1f} s {({k: round(v, 1) for k, v in run.timing.items()})}", flush=True)
+                      f"{time.monotonic() - t_run:.1f} s {({k: round(v, 1) for k, v in run.timing.items()})}; "
+                      f"who drives: {run.plan.script or '-'}, {drives}", flush=True)
                 for code, stop_s, output in run.exits:
                     if code != 0 or stop_s > 5.0:
                         unclean.append(f"seed {seed}: exit {code} after {stop_s:.1f} s")

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from chaos.coverage import REQUIRED, Coverage, Landing
-from chaos.plan import FIRMWARES, PATHS, SETUP, TRANSITION_DELAY_S, USER_STREAM, plan
+from chaos.coverage import DRIVE_REQUIRED, REQUIRED, Coverage, Landing
+from chaos.drivers import AUTONOMY_LIMITS, PLANNER, source_of
+from chaos.plan import FIRMWARES, PATHS, SCRIPTS, SETUP, TRANSITION_DELAY_S, USER_STREAM, plan
 from chaos.scenario import Claims, judge
 from g1_mode_manager.protocol import api_ids
 
@@ -57,14 +58,40 @@ def test_aims_set_up_what_they_aim_at() -> None:
         setup = [(kind, arg) for _, who, kind, arg in p.actions if who == SETUP]
         if row == "UNINITIALIZED":  # nothing may connect the node before the e-stop
             assert p.actions == [] and p.kill_at is None
-        if row in ("IDLE", "HIGH_LEVEL", "LOW_LEVEL"):
+        if row in ("IDLE", "LOW_LEVEL"):
             assert setup == [("mode", row.lower())]
+        if row == "HIGH_LEVEL":  # then its script, which hands the planner the robot (the robot walking, or not)
+            assert setup[0] == ("mode", "high_level") and p.script in SCRIPTS
+            assert setup[1] == ("hand_over", "") or setup[1:3] == [("loco", "start"), ("hand_over", "")]
         if row == "->LOW_LEVEL" and p.path == "release":  # kept long by the robot: ReleaseMode and CheckMode late
             assert setup[-1] == ("mode", "low_level")
             for api in (api_ids.MS_RELEASE_MODE, api_ids.MS_CHECK_MODE):
                 assert p.faults["delay_s"][str(api)][0] >= TRANSITION_DELAY_S[0]
         if p.kill_at is not None:
             assert 0.0 < p.kill_at <= p.setup_at
+
+
+def test_every_window_of_a_hundred_seeds_plays_each_script_where_it_aims_at_high_level() -> None:
+    for first in (0, 7000, 34000, 52017):
+        plans = [plan(s) for s in range(first, first + 100)]
+        scripts = [p.script for p in plans if p.aim[0] == "HIGH_LEVEL"]
+        assert all(scripts.count(script) >= 2 for script in SCRIPTS), scripts
+
+
+def test_the_planner_has_its_own_shape_and_asks_past_each_of_the_autonomys_limits() -> None:
+    plans = [plan(s) for s in range(300)]
+    assert all(source_of(list(p.planner_command)) == PLANNER for p in plans)
+    limits = (AUTONOMY_LIMITS.max_vx, AUTONOMY_LIMITS.max_vy, AUTONOMY_LIMITS.max_wz)
+    for axis, limit in enumerate(limits):
+        assert any(abs(p.planner_command[axis]) > limit for p in plans)
+
+
+def test_who_drives_is_in_the_noise_and_in_setups_that_leave_high_level() -> None:
+    plans = [plan(s, ("medium",)) for s in range(200)]
+    kinds = {kind for p in plans for _, _, kind, _ in p.actions}
+    assert {"hand_over", "take_over", "planner", "drive"} <= kinds
+    assert {p.script for p in plans if p.aim[0] in ("->IDLE", "->LOW_LEVEL", "FAULT")} == {"leave", None}
+    assert {p.race for p in plans} == {"hand_over", "take_over", None}
 
 
 def test_lengths_reach_thirty_seconds_and_forty_actions() -> None:
@@ -81,8 +108,11 @@ def test_coverage_reports_missing_cells_and_e_stops_before_the_first_connect() -
         cov.add(Landing(row, (column,), connected=row != "UNINITIALIZED"), ["short scenarios"])
     assert cov.missing() == [REQUIRED[-1]]
     assert any("cells never hit" in why for why in cov.shortfalls())
-    cov.add(Landing(*REQUIRED[-1][:1], (REQUIRED[-1][1],), connected=True))
-    assert cov.missing() == [] and cov.after_connect() > 0.7 and cov.shortfalls() == []
+    cov.add(Landing(*REQUIRED[-1][:1], (REQUIRED[-1][1],), connected=True), DRIVE_REQUIRED[:-1])
+    assert cov.missing() == [] and cov.after_connect() > 0.7
+    assert cov.shortfalls() == [f"drive cells never hit: {[DRIVE_REQUIRED[-1]]}"]
+    cov.add(Landing("HIGH_LEVEL", ("nothing",), connected=True), DRIVE_REQUIRED[-1:])
+    assert cov.shortfalls() == []
     for _ in range(100):
         cov.add(Landing("UNINITIALIZED", ("nothing",), connected=False))
     assert any("after the first connect" in why for why in cov.shortfalls())

@@ -77,6 +77,9 @@ CONTROLLER_STALL_S: Final = margin(1.0)
 STEP_HELD_S: Final = margin(2.0)
 #: How long a test watches for something that must not happen (a Move from a source that does not drive).
 QUIET_WINDOW_S: Final = margin(1.0)
+#: A planner that fell silent: its Moves end on the robot within the autonomy's timeout plus this. The node takes the
+#: planner's last messages late when starved (a loaded two-core machine has starved it ~1.9 s).
+SILENT_PLANNER_STOP_S: Final = margin(2.0)
 #: How long the sim's record may take to show what the robot received: its frame handlers lag their readers on a
 #: loaded machine, so a test waits for the record to show a frame rather than reading it once after a fixed time.
 RECORD_WAIT_S: Final = margin(10.0)
