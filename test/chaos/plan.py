@@ -18,11 +18,11 @@ of LOW_LEVEL (to HIGH_LEVEL and to IDLE), with the user's stream stopping before
 
 Both sources of the Move stream drive in the scenarios: the teleop (/cmd_vel, the "drive" stream) and a planner
 publishing the autonomy's cmd_vel_nav at 20 Hz with a command of its own shape (drivers.py), which passes only
-once an operator handed it the robot. The noise hands over, takes over (``~/take_over`` and the teleop's
-commands) and runs the planner at random instants, racing the mode requests; a setup aimed at HIGH_LEVEL plays a
-*script* of the two, each in turn by seed (the planner driving at the e-stop, a teleop takeover, a take_over
-service call, the planner falling silent), and the e-stop waits for it; a setup that leaves HIGH_LEVEL (to IDLE,
-LOW_LEVEL or FAULT) often hands over first, so that the autonomy drives when it is left; and some e-stops go
+once an operator handed it the robot. The noise hands over, takes over (``~/take_over`` and the teleop's commands)
+and runs the planner at random instants, racing the mode requests; a setup aimed at HIGH_LEVEL plays a *script* of
+the two, each in turn by seed (the planner driving at the e-stop, a teleop takeover, a take_over service call, the
+planner falling silent and the human taking over), and the e-stop waits for it; a setup that leaves HIGH_LEVEL (to
+IDLE, LOW_LEVEL or FAULT) often hands over first, so that the autonomy drives when it is left; and some e-stops go
 out together with a hand-over or a take-over. These draws come from a random generator of their own, so a seed's
 other draws are what they were before.
 
@@ -191,8 +191,9 @@ def _script(script: str, rng: random.Random) -> list[tuple[float, str, Any]]:
         return [*handed, (0.0, "drive", round(rng.uniform(0.15, 0.3), 2)), *handed]
     if script == "take_over":
         return [*handed, (0.0, "take_over", ""), pause(0.1, 0.3), *handed]
-    if script == "silent":
-        return [*handed, (0.0, "planner_off", ""), (0.0, "pause", SILENCE_S)]
+    if script == "silent":  # then the human takes the robot back from the silent planner, by either way
+        back = rng.choice([(0.0, "take_over", ""), (0.0, "drive", round(rng.uniform(0.15, 0.3), 2))])
+        return [*handed, (0.0, "planner_off", ""), (0.0, "pause", SILENCE_S), back]
     # the robot walking (its Moves acknowledged: the autonomy's ramp judged), the planner up to speed (0.5 s)
     return [(0.0, "loco", "start"), (0.0, "hand_over", ""), pause(0.2, 0.8)]
 
