@@ -175,6 +175,8 @@ class DriveSources:
         blocked = self._blocked()
         if blocked is not None:
             return f"suspended: {blocked}"
+        if source.watchdog.age_s() is None:  # a hand-over forgets the commands from before it: none has come yet
+            return f"waiting: no {source.topic} since the hand-over"
         if source.watchdog.expired():
             return f"silent: no {source.topic} for {source.watchdog.timeout_s:g} s"
         return None

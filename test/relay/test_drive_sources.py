@@ -113,6 +113,8 @@ def test_the_autonomy_silent_stops_the_robot_and_keeps_the_robot(events, logs, c
     port = FakeRobotPort()
     relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
     relay.sources.hand_over()
+    # no command since the hand-over is not yet silence (the planner's next one may be on its way)
+    assert relay.sources.driving(Mode.HIGH_LEVEL).autonomy_suspended == "waiting: no cmd_vel_nav since the hand-over"
     for _ in range(10):
         _autonomy(relay, 0.3)
         _run(relay, clock, 1)
