@@ -83,6 +83,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=5.0, help="wall seconds per measurement")
     parser.add_argument("--domain", type=int, default=231, help="SDK DDS domain (loopback) for the run")
     args = parser.parse_args(argv)
+    from harness.processes import restore_sigint
+
+    restore_sigint()  # the reader is stopped with SIGINT, however this was started
     packing()
     # One SDK domain per process: the second measurement reuses it with a fresh bridge.
     for with_reader in (False, True):

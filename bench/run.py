@@ -39,6 +39,7 @@ os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 from g1_mode_manager.protocol import api_ids  # noqa: E402
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES  # noqa: E402
 from harness.mode_manager import RosClient, start_mode_manager, wait_until  # noqa: E402
+from harness.processes import restore_sigint  # noqa: E402
 from harness.rate import run_at_rate  # noqa: E402
 from harness.sim_bridge import shared_sim_status, start_sim_bridge  # noqa: E402
 from harness.sim_record import is_damp, requests, velocity_of  # noqa: E402
@@ -600,6 +601,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cpu-only", action="store_true",
                         help="only the node's CPU rows (idle HIGH_LEVEL with the body checks on, the streams)")
     args = parser.parse_args(argv)
+    restore_sigint()  # the bench stops its sims and nodes with SIGINT, started in the background or not
     if args.cpu_only:
         return cpu_only(args.cpu_seconds)
     from g1_mode_manager.protocol.dds import init_channels

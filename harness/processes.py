@@ -118,6 +118,17 @@ class ManagedProcess:
         return self.proc.returncode
 
 
+def restore_sigint() -> None:
+    """Give SIGINT back its default disposition, so that every child started after this stops on stop()'s SIGINT.
+
+    A shell without job control starts a background command with SIGINT ignored (POSIX), exec keeps an ignored
+    signal ignored, and a Python child then never sees a KeyboardInterrupt: each stop() of a script that relies on
+    one waited its whole timeout for the SIGTERM. Call it from the main thread, before the first child starts.
+    """
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def _unread_bytes(fd: int) -> int:
     try:
         return struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0]
