@@ -85,3 +85,23 @@ def channel_matched_readers(channel: Any) -> int:
     """How many readers a channel's writer has matched now, as its matched listener last counted them (what
     the SDK's ``Write`` waits on)."""
     return channel._Channel__writer._Writer__publication_matched_count
+
+
+#: The SDK modules whose constructors sleep after creating their entities (an RPC stub 0.5 s, a writer 0.2 s).
+_SLEEPING_MODULES = ("unitree_sdk2py.rpc.server_stub", "unitree_sdk2py.rpc.client_stub", "unitree_sdk2py.core.channel")
+
+
+def route_sdk_sleeps(sleep: Callable[[float], None]) -> None:
+    """Make the SDK's own ``time.sleep`` calls (its constructors' discovery waits, its writers' match polls) call
+    ``sleep`` instead; every other ``time`` function stays the standard one."""
+    import importlib
+    import time
+
+    class _Time:
+        def __getattr__(self, name: str) -> Any:
+            return getattr(time, name)
+
+    routed = _Time()
+    routed.sleep = sleep  # type: ignore[attr-defined]
+    for name in _SLEEPING_MODULES:
+        importlib.import_module(name).time = routed  # type: ignore[attr-defined]

@@ -23,6 +23,7 @@ from g1_mode_manager.protocol.dds import init_channels
 from g1_mode_manager.protocol.fsm import InternalCtrl
 from g1_mode_manager.protocol.idl import SportModeState_
 from g1_mode_manager.protocol.lowstate_fields import decode_body_fields
+from g1_mode_manager.protocol.side_by_side import side_by_side
 from g1_mode_manager.sdk.arm_sdk import ArmSdkWriter
 from g1_mode_manager.sdk.battery_reader import BatteryReader
 from g1_mode_manager.sdk.loco_client import LocoClient
@@ -101,12 +102,13 @@ class UnitreeRobot:
                 self._sport = SportStateReader()
                 if self._sport_listener is not None:
                     self._sport.set_listener(self._relay_sport_state)
-                self._loco = LocoClient(self.rpc_timeout_s)
-                self._switcher = MotionSwitcherClient(self.mode_timeout_s)
-                self._arm = ArmSdkWriter()
-                self._lowcmd = LowCmdWriter(self._lowstate_mode_machine)
-                if self._user_ctrl:
-                    self._user_lowcmd = LowCmdWriter(self._lowstate_mode_machine, topics.USER_LOWCMD)
+                # the clients' and writers' SDK sleeps overlap: the first transition waits for one, not five
+                user_lowcmd = (lambda: LowCmdWriter(self._lowstate_mode_machine, topics.USER_LOWCMD)) \
+                    if self._user_ctrl else (lambda: None)
+                self._switcher, self._arm, self._lowcmd, self._user_lowcmd, self._loco = side_by_side(
+                    lambda: MotionSwitcherClient(self.mode_timeout_s), ArmSdkWriter,
+                    lambda: LowCmdWriter(self._lowstate_mode_machine), user_lowcmd,
+                    lambda: LocoClient(self.rpc_timeout_s))
                 self.create_time_s = time.monotonic() - start
             try:
                 self._switcher.wait_ready(self.ready_budget_s)

@@ -160,6 +160,7 @@ def _serve(script: dict[str, Any]) -> None:
     from g1_mode_manager.protocol.crc import lowstate_crc
     from g1_mode_manager.protocol.dds import init_channels
     from g1_mode_manager.protocol.idl import LowCmd_, LowState_, SportModeState_
+    from g1_mode_manager.protocol.side_by_side import side_by_side
 
     log = _Log()
     robot = _Robot(script)
@@ -190,8 +191,8 @@ def _serve(script: dict[str, Any]) -> None:
         server._SetApiVersion(version)
         for api_id in ids:
             server._RegistHandler(api_id, lambda p, a=api_id, h=handler: h(a, p), False)
-        server.Start(False)
         servers.append(server)
+    side_by_side(*(lambda server=server: server.Start(False) for server in servers))  # their SDK sleeps overlap
 
     subscribers = []
     if script.get("record_frames"):

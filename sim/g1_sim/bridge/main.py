@@ -153,6 +153,7 @@ class Bridge:
                  user_ctrl: str = DEFAULT_OPTION.value) -> None:
         from g1_mode_manager.protocol import api_ids as api
         from g1_mode_manager.protocol.dds import init_channels
+        from g1_mode_manager.protocol.side_by_side import side_by_side
         from g1_sim.bridge.clock import Pacer, StampClock
         from g1_sim.bridge.commands import USER_LOWCMD, CommandIntake
         from g1_sim.bridge.faults import FaultConfig, Faults, parse_faults
@@ -206,10 +207,8 @@ class Bridge:
         self.servers.append(SimServer(api.VOICE_SERVICE, api.VOICE_API_VERSION, voice_handlers(self.voice),
                                       counter=self.requests))
         self._record_state()
-        for server in self.servers:
-            if stop.is_set():
-                break
-            server.Start()
+        if not stop.is_set():
+            side_by_side(*(server.Start for server in self.servers))  # five SDK stub sleeps overlapping
         self.publishers = StatePublishers()
         self._user_lowcmd_topic = USER_LOWCMD
         frame_hook = self._frame if self.record.enabled else None

@@ -17,6 +17,7 @@ from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
 from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, OdomModeState_, SportModeState_
 from g1_mode_manager.protocol.odom_fields import OdomFields, encode_odom
+from g1_mode_manager.protocol.side_by_side import side_by_side
 from g1_mode_manager.protocol.unitree_sdk_internals import (
     channel_datareader,
     channel_datawriter,
@@ -104,6 +105,12 @@ class RawWriter:
         return write_serialized(self._writer, data)
 
 
+def _publisher(topic: str, msg_type: type) -> ChannelPublisher:
+    publisher = ChannelPublisher(topic, msg_type)
+    publisher.Init()
+    return publisher
+
+
 class StatePublishers:
     """Writers of rt/lowstate and rt/lf/lowstate (packed without cyclonedds' slow serialiser),
     rt/sportmodestate, rt/lf/bmsstate, rt/secondary_imu and both odometry topics (written as ready-made bytes).
@@ -112,14 +119,12 @@ class StatePublishers:
     """
 
     def __init__(self) -> None:
-        self._lowstate = ChannelPublisher(topics.LOWSTATE, LowState_)
-        self._lowstate.Init()
-        self._lf_lowstate = ChannelPublisher(topics.LF_LOWSTATE, LowState_)
-        self._lf_lowstate.Init()
-        self._sport = ChannelPublisher(topics.SPORTMODESTATE, SportModeState_)
-        self._sport.Init()
-        self._bms = ChannelPublisher(topics.LF_BMSSTATE, BmsState_)
-        self._bms.Init()
+        # the SDK's writers sleep 0.2 s each after their creation: side by side, once
+        self._lowstate, self._lf_lowstate, self._sport, self._bms, self._imu, self._odom, self._lf_odom = side_by_side(
+            lambda: _publisher(topics.LOWSTATE, LowState_), lambda: _publisher(topics.LF_LOWSTATE, LowState_),
+            lambda: _publisher(topics.SPORTMODESTATE, SportModeState_), lambda: _publisher(topics.LF_BMSSTATE, BmsState_),
+            lambda: RawWriter(topics.SECONDARY_IMU, IMUState_), lambda: RawWriter(topics.ODOMMODESTATE, OdomModeState_),
+            lambda: RawWriter(topics.LF_ODOMMODESTATE, OdomModeState_))
         self._bms_msg = unitree_hg_msg_dds__BmsState_()
         self._bms_msg.version_high, self._bms_msg.version_low = BMS_VERSION
         self._bms_msg.soh, self._bms_msg.cycle = BMS_SOH, BMS_CYCLE
@@ -127,9 +132,6 @@ class StatePublishers:
         self._packer = LowStatePacker()
         self_check(self._packer)
         imu_codec.self_check()
-        self._imu = RawWriter(topics.SECONDARY_IMU, IMUState_)
-        self._odom = RawWriter(topics.ODOMMODESTATE, OdomModeState_)
-        self._lf_odom = RawWriter(topics.LF_ODOMMODESTATE, OdomModeState_)
         self._sport_msg = SportModeState_(fsm_id=0, fsm_mode=0, task_id=0, task_time=0.0)
         self._lock = threading.Lock()
         self._counts: Counter[str] = Counter()
