@@ -152,7 +152,7 @@ def _noise(rng: random.Random, length: str) -> tuple[list[tuple[float, int, str,
             arg = rng.choice(LOCO)
         elif kind in STREAMS:
             arg = round(rng.uniform(0.3, 1.5), 2)
-        elif kind == "body":  # after the node's first connect (~1.5 s): before it, no check acts
+        elif kind == "body":  # after the node's first connect: before it, no check acts
             arg = _body_fault(rng)
             at = max(at, round(rng.uniform(1.8, 2.6), 3))
         actions.append((at, rng.randrange(clients), kind, arg))

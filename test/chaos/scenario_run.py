@@ -85,7 +85,7 @@ class ScenarioRun:
             self.timing["operators"] = time.monotonic() - t0
             stack.set_faults({})
             # the robot damped, and by the node's e-stop: the remote's L2+B damps it by itself (the built-in
-            # controller), while an e-stop from UNINITIALIZED first connects (~1.5 s)
+            # controller), while an e-stop from UNINITIALIZED first connects
             wait_until(lambda: _damped(stack.sim.get()) and _damp_since(stack.record, claims.t_estop), SETTLE_S, 0.1)
             self.timing["damped"] = time.monotonic() - t0
             time.sleep(0.3)

@@ -32,7 +32,7 @@ def show(config: pytest.Config, text: str) -> None:
 
 @pytest.fixture(scope="module")
 def robot(sdk_channels: int, pytestconfig: pytest.Config) -> Iterator[UnitreeRobot]:
-    """One connected UnitreeRobot for the module (connect creates DDS entities once and costs ~1.5 s)."""
+    """One connected UnitreeRobot for the module (connect creates DDS entities once, with the SDK's sleeps)."""
     peer = start_scripted_robot({"domain": sdk_channels})
     port = UnitreeRobot(sdk_channels, "lo", rpc_timeout_s=1.0, mode_timeout_s=5.0)
     try:
