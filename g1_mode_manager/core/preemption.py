@@ -72,6 +72,10 @@ class RunPort:
             raise StepTimeoutError(f"{what} not sent: the time budget is spent")
         return left if configured is None else min(configured, left)
 
+    def preempted(self) -> bool:
+        """An e-stop preempted this run (the next robot call or sleep raises Preempted)."""
+        return self._preempted is not None and self._preempted.is_set()
+
     def _check(self, what: str) -> None:
         if self._preempted is not None and self._preempted.is_set():
             raise Preempted(what)

@@ -127,10 +127,23 @@ class UserCtrlLink:
         #: Wakes whoever writes ``filler`` (the lowcmd relay's worker sleeps while it has nothing to send).
         self.wake: Callable[[], None] = lambda: None
 
-    def begin(self, filler: JointFrame) -> None:
+    def begin(self, filler: JointFrame, stopped: Callable[[], bool]) -> bool:
+        """The entry's hand-over: ``filler`` held from now on, unless ``stopped()`` (an e-stop or FAULT already
+        preempted the entry); False then, nothing begun. Judged under the lock ``stop`` takes, so a stop either
+        comes first and is seen here, or comes after and replaces the filler with damping."""
         with self._lock:
+            if stopped():
+                return False
             self.filler = filler
             self.live = True
+        self.wake()
+        return True
+
+    def stop(self) -> None:
+        """An e-stop or FAULT registered: whatever the relay repeats from now on is damping (nothing is repeated
+        unless the robot is, or may be about to be, under user control)."""
+        with self._lock:
+            self.filler = DAMPING
         self.wake()
 
     def mark_live(self, filler: JointFrame | None = None) -> None:

@@ -304,3 +304,34 @@ def test_the_entry_waits_for_rest_and_refuses_a_robot_that_keeps_moving() -> Non
     assert outcome.refused and "not at rest" in outcome.message and "2.50 rad/s" in outcome.message, outcome
     assert "switch_to_user_ctrl" not in rig.robot.names() and not rig.robot.user_frames and not rig.link.live
     assert rig.clock is not None and rig.clock.slept >= UserCtrlConfig().rest_timeout_s
+
+
+def test_an_estop_while_the_entry_measures_the_pose_leaves_no_stiff_hold_behind_it() -> None:
+    """The e-stop lands after the entry's last robot call and before its hand-over frame: the entry must not begin
+    the hold after the e-stop (the relay would repeat a kp 300 frame after the Damp until the robot was seen out
+    of a user control it never entered)."""
+    rig = Rig(real_time=True)
+    rig.to(HI)
+    measuring, go_on = threading.Event(), threading.Event()
+    original = rig.robot.joint_positions
+
+    def paused_pose():
+        measuring.set()
+        assert go_on.wait(10.0)
+        return original()
+
+    rig.robot.joint_positions = paused_pose  # type: ignore[method-assign]
+    outcomes: list = []
+    entry = threading.Thread(target=lambda: outcomes.append(rig.machine.request(LO)))
+    entry.start()
+    assert measuring.wait(5.0)
+    frames_before = len(rig.robot.user_frames)
+    estop = rig.machine.estop()
+    go_on.set()
+    entry.join(5.0)
+    assert estop.success, estop
+    assert outcomes and outcomes[0].message.endswith("preempted by e-stop"), outcomes
+    stiff = [frame for _, frame in rig.robot.user_frames[frames_before:] if max(c.kp for c in frame) > 0]
+    assert stiff == [], "a hand-over frame reached the robot after the e-stop"
+    assert rig.link.filler == DAMPING and not rig.link.live
+    assert rig.machine.mode is EM and rig.robot.damped and not rig.robot.user_ctrl

@@ -39,7 +39,7 @@ class Rig:
 
     def enter(self) -> None:
         """What the entry step does: the hand-over frame, then fsm 1000 seen, then LOW_LEVEL."""
-        self.link.begin(hold_frame(self.port.positions, 80.0, 2.0))
+        self.link.begin(hold_frame(self.port.positions, 80.0, 2.0), lambda: False)
         self.link.entered()
         self.gate.mode = Mode.LOW_LEVEL
 
@@ -55,7 +55,7 @@ def test_user_frames_go_to_user_lowcmd_never_to_lowcmd(events, clock) -> None:
 def test_the_hand_over_frame_repeats_until_the_first_user_frame(events, clock) -> None:
     rig = Rig(events, clock)
     rig.gate.in_transition = True  # the entry is under way
-    rig.link.begin(hold_frame(rig.port.positions, 80.0, 2.0))
+    rig.link.begin(hold_frame(rig.port.positions, 80.0, 2.0), lambda: False)
     assert rig.relay.busy()
     rig.relay.tick(0.02)
     assert rig.frames()[-1][3].kp == 80.0 and rig.frames()[-1][3].q == rig.port.positions[3]

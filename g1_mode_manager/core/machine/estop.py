@@ -133,6 +133,8 @@ class Estop:
         finally:
             if registered:
                 self._gate.lock.release()
+        if self.user_ctrl is not None:  # after the preemption above: an entry's hand-over begins before or never
+            self.user_ctrl.link.stop()
         if not registered:
             notes.append("a relay held its write longer than the forward wait")
         if preempted is not None:

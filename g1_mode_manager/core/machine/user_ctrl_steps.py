@@ -53,8 +53,11 @@ class UserCtrlSteps:
         if pose is None:
             raise UserCtrlRefused("no measured pose (rt/lowstate not received): nothing to hold the robot at")
         hold = hold_frame(pose, self.config.hold_kp, self.config.hold_kd)
-        self.port.write_user_lowcmd(hold)  # before the switch: the robot has a command from its first instant
-        self.link.begin(hold)  # from here the lowcmd relay repeats it until a user frame passes
+        # from here the lowcmd relay repeats it until a user frame passes; an e-stop that preempted this entry
+        # while the pose was measured must not find a stiff hold begun behind it
+        if not self.link.begin(hold, calls.preempted):
+            raise Preempted("the hand-over frame")
+        self.port.write_user_lowcmd(self.link.filler)  # before the switch: the robot has a command from its first instant
         self.link.switch_sent()
         try:
             calls.switch_to_user_ctrl()
