@@ -77,7 +77,7 @@ class RunPort:
         return self._preempted is not None and self._preempted.is_set()
 
     def _check(self, what: str) -> None:
-        if self._preempted is not None and self._preempted.is_set():
+        if self.preempted():
             raise Preempted(what)
 
     def connect(self) -> None:

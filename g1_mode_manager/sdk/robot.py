@@ -102,7 +102,7 @@ class UnitreeRobot:
                 self._sport = SportStateReader()
                 if self._sport_listener is not None:
                     self._sport.set_listener(self._relay_sport_state)
-                # the clients' and writers' SDK sleeps overlap: the first transition waits for one, not five
+                # the two RPC clients' SDK sleeps (0.7 s each) overlap: the first transition waits for one of them
                 user_lowcmd = (lambda: LowCmdWriter(self._lowstate_mode_machine, topics.USER_LOWCMD)) \
                     if self._user_ctrl else (lambda: None)
                 self._switcher, self._arm, self._lowcmd, self._user_lowcmd, self._loco = side_by_side(
