@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import json
 import re
+import threading
+import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,6 +23,8 @@ from g1_sim.bridge.clock import Pacer, RateMeter
 from g1_sim.bridge.faults import FaultConfigError, Faults, parse_faults
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
 from g1_sim.bridge.rpc_services import SimServer, arm_action_handlers, motion_switcher_handlers, sport_handlers
+from g1_sim.firmware.state import BodySnapshot
+from g1_sim.physics.battery import reading_at
 
 
 @dataclass
@@ -524,3 +529,83 @@ def test_cli_gantry_and_soc_reach_the_bridge() -> None:
     assert "gantry" not in _overrides(parse_cli([])) and parse_cli([]).soc == 90.0
     with pytest.raises(SystemExit):
         parse_cli(["--soc", "120"])
+
+
+class _SteppingRobot:
+    """Changes its fsm_mode inside ``step``, as a get-up standing still or a fall does in the sim's loop."""
+
+    dt = 0.002
+
+    def __init__(self) -> None:
+        self.lock = threading.RLock()
+        self.time = 0.0
+        self.fsm_id = 702
+        self._mode = 1
+        self._steps = 0
+
+    def step(self, n: int = 1) -> None:
+        with self.lock:
+            self._steps += n
+            self.time += n * self.dt
+            if self._steps % 7 == 0:  # not a multiple of any publishing period: changes land between frames
+                self._mode ^= 1
+
+    def sport_state(self) -> tuple[int, int]:
+        with self.lock:
+            return (self.fsm_id, self._mode)
+
+    def check_mode(self) -> tuple[str, str]:
+        return ("normal", "ai")
+
+    def lowstate(self) -> None: ...
+    def torso_imu(self) -> None: ...
+    def sport_active(self) -> bool:
+        return False
+    def odometry(self) -> None: ...
+    def arm_task(self) -> tuple[int, float]:
+        return (0, 0.0)
+    def base_pose(self) -> None: ...
+    def body(self) -> BodySnapshot:
+        return BodySnapshot(np.full(29, 30.0), np.full(29, 30.0), reading_at(90.0, 100.0), frozenset())
+
+
+class _SportFrames:
+    """Publishes nothing; for every rt/sportmodestate frame, keeps what it shows and the record's last state then."""
+
+    def __init__(self, record: Path) -> None:
+        self.record = record
+        self.seen: list[tuple[tuple[int, int], tuple[int, int] | None]] = []
+
+    def publish_sportmodestate(self, fsm_id: int, fsm_mode: int, task_id: int = 0, task_time: float = 0.0) -> None:
+        states = [json.loads(line) for line in self.record.read_text().splitlines()]
+        last = [(e["fsm"], e["fsm_mode"]) for e in states if e["k"] == "state"][-1:]
+        self.seen.append(((fsm_id, fsm_mode), last[0] if last else None))
+
+    def publish_lowstate(self, *_: Any, **__: Any) -> None: ...
+    def publish_secondary_imu(self, *_: Any) -> None: ...
+    def publish_odom(self, *_: Any, **__: Any) -> None: ...
+    def publish_bmsstate(self, *_: Any) -> None: ...
+
+
+def test_a_state_is_on_the_record_before_the_sportmodestate_frame_that_shows_it(tmp_path: Path) -> None:
+    """A client answered on a frame (a get-up answered once 702 shows standing) must find the state on the
+    record: the frame's state is read and recorded in one hold of the robot's lock, before it is published."""
+    from g1_sim.bridge.record import Recorder, record_state
+    from g1_sim.bridge.sim_loop import SimLoop
+
+    robot, path = _SteppingRobot(), tmp_path / "record.jsonl"
+    recorder, frames = Recorder(str(path)), _SportFrames(path)
+    loop = SimLoop(robot, frames, Faults(), Pacer(0.0),  # type: ignore[arg-type]
+                   sport_state=lambda: record_state(recorder, robot))
+    loop.start()
+    try:
+        deadline = time.monotonic() + 10.0
+        while len(frames.seen) < 40 and time.monotonic() < deadline and loop.running:
+            time.sleep(0.01)
+    finally:
+        loop.stop()
+        recorder.close()
+    assert loop.error is None, loop.error
+    assert len(frames.seen) >= 40
+    assert {shown[1] for shown, _ in frames.seen} == {0, 1}, "the robot's state never changed between frames"
+    assert all(shown == recorded for shown, recorded in frames.seen), frames.seen

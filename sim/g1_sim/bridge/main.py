@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from g1_sim.bridge.record import record_state
 from g1_sim.firmware.user_ctrl import DEFAULT_OPTION, UserCtrlOption
 from g1_sim.physics.battery import START_SOC
 
@@ -216,7 +217,8 @@ class Bridge:
         self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
                             on_body=self._body if self.record.enabled else None,
-                            on_odom=self._odom if self.record.enabled else None)
+                            on_odom=self._odom if self.record.enabled else None,
+                            sport_state=self._record_state if self.record.enabled else None)
         self._params = p
 
     def start(self) -> None:
@@ -302,12 +304,9 @@ class Bridge:
                           true_x=round(float(o.true_position[0]), 6), true_y=round(float(o.true_position[1]), 6),
                           true_yaw=round(float(o.true_yaw), 6))
 
-    def _record_state(self) -> None:
-        """Read under the robot's lock and recorded before it is released: the frame, RPC and loop threads all
-        record, and a state read before another thread recorded a newer one must not be written after it."""
-        robot = self.robot.current  # one robot for the whole read, though a reset may swap the slot meanwhile
-        with robot.lock:
-            self.record.state(robot.fsm_id, robot.check_mode()[1], robot.sport_state()[1])
+    def _record_state(self) -> tuple[int, int]:
+        # one robot for the whole read, though a reset may swap the slot meanwhile
+        return record_state(self.record, self.robot.current)
 
     def status(self) -> dict[str, Any]:
         """Counters, sport state, base pose and real-time factor (the g1_sim status service's reply)."""

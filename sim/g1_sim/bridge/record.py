@@ -11,8 +11,9 @@ of the machine, so a test can compare it with the moment it sent something). Kin
   "none" = left 0, "wrong"; rt/lowcmd and rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` as for
   ``req``.
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
-  ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``. fsm 1000 is user control; its
-  ``state`` line is written before the first rt/user_lowcmd frame it lets through.
+  ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``. A state is on the record before
+  any rt/sportmodestate frame or RPC reply shows it; fsm 1000 is user control, and its ``state`` line is
+  written before the first rt/user_lowcmd frame it lets through.
 * ``reset``: the sim was reset to its boot state (a sim-only status call).
 * ``odom``: every rt/lf/odommodestate sample (20 Hz of sim time while a high-level service is active): ``st``
   (sim time, the sample's stamp), the estimate as published (float32, rounded to 1e-6): ``x``, ``y`` (m),
@@ -28,7 +29,16 @@ from __future__ import annotations
 import json
 import threading
 import time
-from typing import IO, Any
+from typing import IO, Any, Protocol
+
+
+class StatefulRobot(Protocol):
+    @property
+    def lock(self) -> threading.RLock: ...
+    @property
+    def fsm_id(self) -> int: ...
+    def check_mode(self) -> tuple[str, str]: ...
+    def sport_state(self) -> tuple[int, int]: ...
 
 
 class Recorder:
@@ -75,3 +85,13 @@ class Recorder:
             if self._file is not None:
                 self._file.close()
                 self._file = None
+
+
+def record_state(record: Recorder, robot: StatefulRobot) -> tuple[int, int]:
+    """Record the robot's state and return rt/sportmodestate's (fsm_id, fsm_mode), both read in one hold of
+    its lock. The frame, RPC and loop threads all record: a state read before another thread recorded a newer
+    one must not be written after it, and a frame published with what this returns shows a state that is
+    already on the record (a client answered on that frame finds it there)."""
+    with robot.lock:
+        record.state(robot.fsm_id, robot.check_mode()[1], robot.sport_state()[1])
+        return robot.sport_state()

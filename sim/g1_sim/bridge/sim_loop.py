@@ -13,6 +13,10 @@ rt/odommodestate (500 Hz) and rt/lf/odommodestate (every 25th of its samples: 20
 state estimate (firmware.odometry) while a high-level service is active only, as the robot does; each
 rt/lf/odommodestate sample is handed to ``on_odom`` (the bridge's record) with the truth beside it.
 
+rt/sportmodestate's (fsm_id, fsm_mode) is read through ``sport_state`` when one is given: the bridge's one
+records the robot's state in the same hold of the robot's lock, so the record shows a state before any frame that
+shows it leaves the sim (a client answered on that frame must find the state already on the record).
+
 Every BODY_PERIOD_S of sim time the body's report (temperatures, battery, remote, with injected readings
 laid over: body_report) is taken afresh and handed to ``on_body`` (the bridge's record).
 """
@@ -66,6 +70,8 @@ class SteppableRobot(Protocol):
 BodyHook = Callable[[float, Any, BodyReport], None]
 #: ``on_odom(sim_time, estimate)`` for every rt/lf/odommodestate sample (estimate: firmware.odometry's).
 OdomHook = Callable[[float, Any], None]
+#: ``sport_state()`` -> (fsm_id, fsm_mode) for the next rt/sportmodestate frame.
+SportRead = Callable[[], tuple[int, int]]
 
 
 def _every(rate_hz: float, dt: float) -> int:
@@ -77,7 +83,8 @@ class SimLoop:
 
     def __init__(self, robot: SteppableRobot, publishers: StatePublishers, faults: Faults, pacer: Pacer,
                  *, node: BridgeNode | None = None, stamps: StampClock | None = None,
-                 on_body: BodyHook | None = None, on_odom: OdomHook | None = None) -> None:
+                 on_body: BodyHook | None = None, on_odom: OdomHook | None = None,
+                 sport_state: SportRead | None = None) -> None:
         self._robot = robot
         self._pub = publishers
         self._faults = faults
@@ -86,6 +93,7 @@ class SimLoop:
         self._stamps = stamps or StampClock()
         self._on_body = on_body
         self._on_odom = on_odom
+        self._sport_state = sport_state or robot.sport_state
         self.rate = RateMeter()
         self.error: BaseException | None = None
         self._stop = threading.Event()
@@ -148,7 +156,7 @@ class SimLoop:
                 if lf and self._on_odom is not None:
                     self._on_odom(t, odom)
             if k % self._sport_every == 0 and not paused:
-                pub.publish_sportmodestate(*robot.sport_state(), *robot.arm_task())
+                pub.publish_sportmodestate(*self._sport_state(), *robot.arm_task())
             if k % self._bms_every == 0 and not paused:
                 pub.publish_bmsstate(self.body)
             if on_body is not None and body_due:
