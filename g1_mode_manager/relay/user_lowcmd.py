@@ -11,6 +11,7 @@ What goes out, by situation (each frame written under the relay's worker at ``lo
   (LOW_LEVEL -> IDLE by SwitchToInternalCtrl WALKRUN, or FAULT with PASSIVE when tilted) is verified |
 | LOW_LEVEL, silent, ``user_ctrl_silence: damp`` | damping, as on the release path |
 | link lost, dead-man released, a body check's hold | damping, as on the release path |
+| a body check's hold while the entry is under way, or the way out | damping: a stiff hold is motion under a hold |
 | leaving LOW_LEVEL for HIGH_LEVEL or IDLE | a hold at the pose of that moment until the robot's own controller is seen |
 | e-stop, FAULT | damping until the robot is seen out of user control (fsm 1) |
 """
@@ -50,12 +51,14 @@ class UserLowCmdRelay(LowCmdRelay):
         return self._uc.filler if pose is None else hold_frame(pose, *self._hold_gains)
 
     def on_leave(self, source: Mode, target: Mode) -> None:
-        """Leaving LOW_LEVEL: damping for a stop; for HIGH_LEVEL or IDLE a hold where the robot is, since its own
-        controller is about to take it back standing (damping would make it sink first)."""
+        """Leaving LOW_LEVEL: damping for a stop or under a body check's hold (the robot was being damped already);
+        for HIGH_LEVEL or IDLE a hold where the robot is, since its own controller is about to take it back standing
+        (damping would make it sink first)."""
         if source is not Mode.LOW_LEVEL:
             return
         self._watchdog.reset()
-        self._uc.filler = frame = DAMPING if target in (Mode.EMERGENCY, Mode.FAULT) else self._hold_here()
+        stop = target in (Mode.EMERGENCY, Mode.FAULT) or self._gate.holding_motion()
+        self._uc.filler = frame = DAMPING if stop else self._hold_here()
         sent = sum(self._write(frame, "exit_damping_frames_sent") is None for _ in range(EXIT_BURST))
         what = "damping" if frame.damping else "hold"
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} {what} frames sent "
@@ -92,7 +95,8 @@ class UserLowCmdRelay(LowCmdRelay):
             self._start_hand_back()
             self._write(uc.filler, "hold_frames_sent")
             return
-        if self._held_in_low_level():
+        # a body check's hold in LOW_LEVEL, or while the robot is entering or leaving user control: never stiff
+        if self._held_in_low_level() or (uc.live and self._gate.holding_motion()):
             self._write(DAMPING, "damping_frames_sent")
         elif uc.live:
             self._write(uc.filler, "hold_frames_sent")

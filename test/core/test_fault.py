@@ -177,3 +177,12 @@ def test_a_hold_in_low_level_closes_the_user_stream() -> None:
     rig.bring_to(LO)
     rig.machine.hold(("battery_critical: 9.00 % < 10",))
     assert not rig.machine.allows_low_level_commands() and rig.machine.mode is LO
+
+
+def test_low_level_is_refused_under_a_hold_on_the_release_path_too() -> None:
+    rig = make_rig()
+    rig.bring_to(HI)
+    rig.machine.hold(("battery_critical: 9.00 % < 10",))
+    outcome = rig.machine.request(LO)
+    assert outcome.refused and rig.machine.mode is HI and "holds motion" in outcome.message, outcome
+    assert rig.machine.request(ID).success  # other modes are not: a hold keeps them standing

@@ -335,3 +335,17 @@ def test_an_estop_while_the_entry_measures_the_pose_leaves_no_stiff_hold_behind_
     assert stiff == [], "a hand-over frame reached the robot after the e-stop"
     assert rig.link.filler == DAMPING and not rig.link.live
     assert rig.machine.mode is EM and rig.robot.damped and not rig.robot.user_ctrl
+
+
+def test_low_level_is_refused_while_a_body_check_holds_motion_with_nothing_sent() -> None:
+    """In LOW_LEVEL a hold damps the robot: entering it would hand a standing robot to damping."""
+    rig = Rig()
+    rig.to(HI)
+    rig.machine.hold(("winding_overheat: 121.00 °C > 120",))
+    start = len(rig.robot.calls)
+    outcome = rig.machine.request(LO)
+    assert outcome.refused and rig.machine.mode is HI, outcome
+    assert "holds motion (winding_overheat: 121.00 °C > 120)" in outcome.message and "~/clear_fault" in outcome.message
+    assert rig.robot.names(start) == [] and rig.robot.user_frames == [] and not rig.link.live
+    assert rig.machine.clear_fault(lambda: "", lambda: None).success
+    rig.to(LO)  # released: the entry runs

@@ -112,3 +112,26 @@ def test_leaving_for_high_level_holds_where_the_robot_is(events, clock) -> None:
     assert all(f[5].q == 0.3 and f[5].kp == 80.0 for f in rig.frames()[-3:])
     rig.relay.tick(0.02)
     assert rig.frames()[-1][5].q == 0.3
+
+
+def test_a_hold_during_the_entry_repeats_damping_not_the_hand_over_frame(events, clock) -> None:
+    rig = Rig(events, clock)
+    rig.gate.in_transition = True  # the entry is under way, SwitchToUserCtrl in flight
+    rig.link.begin(hold_frame(rig.port.positions, 80.0, 2.0), lambda: False)
+    rig.relay.tick(0.02)
+    assert rig.frames()[-1][3].kp == 80.0
+    rig.gate.holds = True  # a body check holds motion: a stiff hold is motion
+    rig.relay.tick(0.02)
+    assert rig.frames()[-1] == tuple(DAMPING)
+
+
+def test_leaving_under_a_hold_damps_instead_of_holding(events, clock) -> None:
+    rig = Rig(events, clock)
+    rig.enter()
+    rig.gate.holds = True
+    rig.gate.in_transition = True
+    rig.relay.on_leave(Mode.LOW_LEVEL, Mode.HIGH_LEVEL)
+    assert rig.frames()[-3:] == [tuple(DAMPING)] * 3
+    rig.gate.mode = Mode.HIGH_LEVEL
+    rig.relay.tick(0.02)
+    assert rig.frames()[-1] == tuple(DAMPING) and rig.relay.busy()

@@ -63,6 +63,11 @@ class TransitionRunner:
                 rule = rule_for(source, target, mismatch=bool(state.mismatch), trigger=trigger,
                                 user_ctrl=self.user_ctrl is not None)
                 inflight = None
+                if isinstance(rule, Transition) and target is Mode.LOW_LEVEL and state.holds:
+                    # in LOW_LEVEL a hold damps the robot: entering it would only hand a standing robot to damping.
+                    # Judged under the gate's lock, as hold() is: a hold claimed later finds the entry in flight
+                    rule = (f"LOW_LEVEL refused while a body check holds motion ({', '.join(state.holds)}); "
+                            "~/clear_fault releases the hold once its checks are clear")
                 if isinstance(rule, Transition):
                     inflight = Inflight(source, target)
                     state.inflight = inflight
