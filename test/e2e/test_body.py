@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections import Counter
 
 import pytest
 from g1_mode_manager_msgs.msg import JointCommand
@@ -282,7 +283,11 @@ def test_the_deadman_passes_user_frames_only_while_its_key_is_held(shared_stack_
         assert _user_frames(stack, t0) == [] and _first_damping_frame(stack, t0)
         stack.set_faults({"remote_keys": ["R2"]})
         t_held = _injected(stack, "remote_keys", t0)
-        assert wait_until(lambda: len(_user_frames(stack, t_held)) > 20, 3.0)
+        passing = wait_until(lambda: len(_user_frames(stack, t_held)) > 20, 3.0)
+        last = stack.modes()[-1] if stack.modes() else None
+        assert passing, (f"{len(_user_frames(stack, t_held))} user frames in 3 s with R2 held; ~/mode "
+                         f"{last and (last.mode, list(last.holds), list(last.faults), list(last.warnings))}; lowcmd "
+                         f"frames since: {Counter(str(e['why']) for e in of_kind(stack.record.events(t_held), 'frame'))}")
         stack.set_faults({})
         t_released = max(e["t"] for e in of_kind(stack.record.events(t0), "inject") if e["what"] == "remote_keys")
         time.sleep(0.6)

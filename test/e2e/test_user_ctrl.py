@@ -217,7 +217,7 @@ def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> No
 def test_from_a_damped_robot_and_back_to_damping_by_last(shared_stack_factory) -> None:
     # in the gantry, as Unitree's user-control example is run: a damped G1 standing free sinks to the floor, where
     # LOW_LEVEL's fall check (the user's controller is responsible for keeping it up) would FAULT at once
-    stack = shared_stack_factory(node_params=(USER_CTRL,), bridge_args=("--gantry",))
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY), bridge_args=("--gantry",))
     controller = HoldController(stack)
     assert stack.set_mode("high_level").success
     assert stack.loco("damp").success

@@ -120,13 +120,18 @@ def enter_user_ctrl(stack, controller: HoldController) -> float:
 
 
 def no_user_frame_before_1000(ev) -> None:
+    """No user frame let through before fsm 1000 (by the record's order: a frame is judged when the sim handles it,
+    and the state line comes before the first frame it lets through), and the hand-over frame arrived at the robot
+    before the switch (by arrival time: a frame handler lagging on a loaded machine writes a frame that arrived
+    before the switch after the state line)."""
     states = fsm_states(ev)
     first_1000 = next(i for i, fsm in states if fsm == USER_CTRL_FSM_ID)
     user = [(i, e) for i, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP]
     assert user, "no user frame reached the robot"
     early = [e for i, e in user if i < first_1000]
     assert not early, f"{len(early)} user frames before fsm 1000 was on the record"
-    hand_over = [e for i, e in frames_on(ev, "user_lowcmd") if i < first_1000]
+    switched = ev[first_1000]["t"]
+    hand_over = [e for _, e in frames_on(ev, "user_lowcmd") if e["t"] < switched]
     assert hand_over and all(e["kp_max"] == HOLD_KP for e in hand_over), "no hand-over frame before the switch"
 
 
