@@ -83,6 +83,18 @@ def _estop_inside(stack, interrupted: list, thread: threading.Thread, controller
     return t0, r
 
 
+def _user_frames_after_the_stop(ev: list[dict], t0: float) -> list[dict]:
+    """User frames the robot handled after the node's first own frame (hold or damping) stamped from ``t0`` on. One
+    reader handles rt/user_lowcmd in arrival order, so the record's order is the order the node sent them in; a
+    stamp may be late (the handler stamps a frame itself when the arrival listener lost the race for the GIL), so a
+    user frame sent before the stop can carry a time after it."""
+    frames = [e for _, e in frames_on(ev, "user_lowcmd")]
+    first = next((i for i, e in enumerate(frames) if e["t"] >= t0 and e["kp_max"] != USER_KP), None)
+    if first is None:  # no own frame after the e-stop: judged by the stamps alone
+        return [e for e in frames if e["t"] >= t0 and e["kp_max"] == USER_KP]
+    return [e for e in frames[first:] if e["kp_max"] == USER_KP]
+
+
 def _judge(stack, t0: float, estop, interrupted: list, *, held: dict | None, may_be_user_ctrl: bool) -> list[dict]:
     """What every e-stop inside a step must show on the robot; returns the record.
 
@@ -113,7 +125,7 @@ def _judge(stack, t0: float, estop, interrupted: list, *, held: dict | None, may
               f"{(done['t'] - t0) * 1000:.0f} ms, the e-stop's DampNoReply {(shot['t'] - t0) * 1000:.0f} ms")
         assert held["t"] <= shot["t"] <= done["t"], "the e-stop did not land inside the held step"
 
-    assert not [e for _, e in frames_on(after, "user_lowcmd") if e["kp_max"] == USER_KP], "a user frame after the e-stop"
+    assert not _user_frames_after_the_stop(ev, t0), "a user frame after the e-stop"
     assert frames_on(ev, "lowcmd") == [], "a frame on rt/lowcmd"
     assert not [e for e in requests(after, api.LOCO_SWITCH_TO_USER_CTRL)], "a SwitchToUserCtrl after the e-stop"
     assert not [e for e in requests(ev) if e["svc"] == "motion_switcher" and e["api"] in MOTION_SWITCHER_CHANGES]
