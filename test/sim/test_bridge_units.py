@@ -269,6 +269,17 @@ def test_damp_fails_budget_is_used_up_and_restarts_on_set() -> None:
     assert faults.take_damp_failure() and not faults.take_damp_failure()
 
 
+def test_damp_fails_budget_is_not_restarted_by_other_faults_or_the_same_configuration() -> None:
+    faults = Faults(parse_faults('{"damp_fails": 2}'))
+    assert faults.take_damp_failure()
+    faults.set_json('{"damp_fails": 2, "motor_temperature": {"16": [70, 140]}}')  # a body injection
+    faults.set_json('{"damp_fails": 2}')  # and the plan's configuration re-sent
+    assert faults.take_damp_failure() and not faults.take_damp_failure()
+    faults.set_json("{}")
+    faults.set_json('{"damp_fails": 2}')  # set anew: a new budget
+    assert [faults.take_damp_failure() for _ in range(3)] == [True, True, False]
+
+
 # --- RPC handlers --------------------------------------------------------------------------------
 
 

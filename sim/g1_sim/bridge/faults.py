@@ -353,10 +353,13 @@ class Faults:
         return self._config
 
     def set(self, config: FaultConfig) -> None:
-        """Replace the configuration; the damp failure budget restarts from config.damp_fails."""
+        """Replace the configuration. The damp failure budget restarts from config.damp_fails only when that
+        number changes: a body injection or a re-sent configuration does not make the next Damps fail again (a
+        robot whose Damps failed twice does not fail twice more because a motor heated up meanwhile)."""
         with self._lock:
             old, self._config = self._config, config
-            self._damp_fails_left = config.damp_fails
+            if config.damp_fails != old.damp_fails:
+                self._damp_fails_left = config.damp_fails
             self._rng = random.Random(config.seed)
         if self.on_change is not None:
             self.on_change(old, config)
