@@ -48,16 +48,8 @@ class RosClient:
         # A waiting executor does not see entities created later until something wakes it: a no-op
         # timer wakes it every 0.1 s, so subscriptions added after the start are served too.
         self.node.create_timer(0.1, lambda: None)
-        self._spinning = threading.Event()
-        self._spinning.set()
-        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
         self._thread.start()
-
-    def _spin(self) -> None:
-        # not executor.spin(): close() must end the loop before the executor is shut down, or shutdown destroys
-        # the guard conditions the waiting thread is using (an AttributeError on gc.handle in that thread)
-        while self._spinning.is_set() and self.context.ok():
-            self._executor.spin_once(timeout_sec=0.1)
 
     def call(self, srv_type, name: str, request, timeout_s: float = 30.0, discovery_timeout_s: float = 15.0):
         """Call a service through a client made once per (type, name) and kept: destroying a client while
@@ -103,9 +95,8 @@ class RosClient:
             raise TimeoutError(f"{name} is still served {timeout_s} s after its node stopped")
 
     def close(self) -> None:
-        self._spinning.clear()
-        self._thread.join(5.0)
         self._executor.shutdown()
+        self._thread.join(5.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
