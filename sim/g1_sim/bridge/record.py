@@ -93,5 +93,6 @@ def record_state(record: Recorder, robot: StatefulRobot) -> tuple[int, int]:
     one must not be written after it, and a frame published with what this returns shows a state that is
     already on the record (a client answered on that frame finds it there)."""
     with robot.lock:
-        record.state(robot.fsm_id, robot.check_mode()[1], robot.sport_state()[1])
-        return robot.sport_state()
+        sport = robot.sport_state()
+        record.state(robot.fsm_id, robot.check_mode()[1], sport[1])
+        return sport
