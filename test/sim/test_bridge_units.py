@@ -592,6 +592,16 @@ class _SportFrames:
         last = [(e["fsm"], e["fsm_mode"]) for e in states if e["k"] == "state"][-1:]
         self.seen.append(((fsm_id, fsm_mode), last[0] if last else None))
 
+    def wants_lowstate(self, **_: Any) -> bool:
+        return True
+
+    def wants_secondary_imu(self) -> bool:
+        return True
+
+    def wants_odom(self, **_: Any) -> bool:
+        return True
+
+    def count_unread(self, *_: Any, **__: Any) -> None: ...
     def publish_lowstate(self, *_: Any, **__: Any) -> None: ...
     def publish_secondary_imu(self, *_: Any) -> None: ...
     def publish_odom(self, *_: Any, **__: Any) -> None: ...

@@ -11,7 +11,9 @@ surprise to it. It goes on when rt/lowstate alone is frozen (another topic), and
 
 rt/odommodestate (500 Hz) and rt/lf/odommodestate (every 25th of its samples: 20 Hz) carry the robot's
 state estimate (firmware.odometry) while a high-level service is active only, as the robot does; each
-rt/lf/odommodestate sample is handed to ``on_odom`` (the bridge's record) with the truth beside it.
+rt/lf/odommodestate sample is handed to ``on_odom`` (the bridge's record) with the truth beside it. A torso IMU
+or odometry sample, or an rt/lowstate frame, that no reader has matched and nothing records is not computed
+(streams.StatePublishers).
 
 rt/sportmodestate's (fsm_id, fsm_mode) is read through ``sport_state`` when one is given: the bridge's one
 records the robot's state in the same hold of the robot's lock, so the record shows a state before any frame that
@@ -145,16 +147,29 @@ class SimLoop:
                 self.body = body_report(robot.body(), faults.config)
             s = None
             if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
-                s = robot.lowstate()
-                pub.publish_lowstate(s, self.body, also_lf=k % self._lf_every == 0)
+                lf = k % self._lf_every == 0
+                if pub.wants_lowstate(also_lf=lf):
+                    s = robot.lowstate()
+                    pub.publish_lowstate(s, self.body, also_lf=lf)
+                else:
+                    pub.count_unread("lowstate", also_lf=lf)
             if k % self._low_every == 0 and not paused:
-                pub.publish_secondary_imu(robot.torso_imu())
+                if pub.wants_secondary_imu():
+                    pub.publish_secondary_imu(robot.torso_imu())
+                else:
+                    pub.count_unread("secondary_imu")
             if k % self._odom_every == 0 and not (paused or faults.odom_frozen) and robot.sport_active():
-                odom = robot.odometry()
                 lf = k % self._lf_odom_every == 0
-                pub.publish_odom(t, odom, also_lf=lf)
-                if lf and self._on_odom is not None:
-                    self._on_odom(t, odom)
+                recorded = lf and self._on_odom is not None
+                # the estimate integrates between samples whatever their rate (firmware.odometry): a sample
+                # nobody reads or records need not be computed
+                if recorded or pub.wants_odom(also_lf=lf):
+                    odom = robot.odometry()
+                    pub.publish_odom(t, odom, also_lf=lf)
+                    if recorded:
+                        self._on_odom(t, odom)
+                else:
+                    pub.count_unread("odommodestate", also_lf=lf)
             if k % self._sport_every == 0 and not paused:
                 pub.publish_sportmodestate(*self._sport_state(), *robot.arm_task())
             if k % self._bms_every == 0 and not paused:

@@ -4,8 +4,6 @@ rt/secondary_imu, rt/odommodestate and rt/lf/odommodestate out, rt/lowcmd, rt/us
 from __future__ import annotations
 
 import logging
-import threading
-from collections import Counter
 from collections.abc import Callable
 from typing import Any, Final, Protocol
 
@@ -98,6 +96,10 @@ class RawWriter:
         if writer_use_version_2(self._writer):
             raise RuntimeError(f"the {topic} writer serialises XCDR2; its ready-made samples are XCDR1")
 
+    def has_readers(self) -> bool:
+        """Some reader has matched (the SDK's listener's count): a sample written now reaches someone."""
+        return channel_matched_readers(self._channel) > 0
+
     def write(self, data: bytes) -> bool:
         """Publish one sample (encapsulation header first); False if DDS refused it."""
         if channel_matched_readers(self._channel) == 0:
@@ -115,7 +117,10 @@ class StatePublishers:
     """Writers of rt/lowstate and rt/lf/lowstate (packed without cyclonedds' slow serialiser),
     rt/sportmodestate, rt/lf/bmsstate, rt/secondary_imu and both odometry topics (written as ready-made bytes).
 
-    ``publish_*`` are called from the sim thread only.
+    ``publish_*`` and ``count_unread`` are called from the sim thread only. The loop asks ``wants_*`` before it
+    computes a sample: one of a topic no reader has matched is counted as published (``count_unread``) but neither
+    computed, packed nor handed to DDS, which would drop it (volatile durability). The sim runs much of its time
+    with nobody on rt/lowstate, rt/secondary_imu or the odometry, and their 500 Hz work was a good part of its CPU.
     """
 
     def __init__(self) -> None:
@@ -133,8 +138,10 @@ class StatePublishers:
         self_check(self._packer)
         imu_codec.self_check()
         self._sport_msg = SportModeState_(fsm_id=0, fsm_mode=0, task_id=0, task_time=0.0)
-        self._lock = threading.Lock()
-        self._counts: Counter[str] = Counter()
+        self._low_channel = publisher_channel(self._lowstate)
+        self._lf_low_channel = publisher_channel(self._lf_lowstate)
+        # written by the sim thread only; counts() copies it in one C call under the GIL
+        self._counts: dict[str, int] = {}
 
     def publish_lowstate(self, s: LowStateLike, body: BodyReport, *, also_lf: bool = False) -> None:
         """rt/lowstate, and the same frame on rt/lf/lowstate if ``also_lf`` (the robot's decimated copy).
@@ -148,6 +155,22 @@ class StatePublishers:
         if also_lf:
             ok = self._lf_lowstate.Write(msg)
             self._bump("lf_lowstate" if ok else "lf_lowstate_write_errors")
+
+    def count_unread(self, topic: str, *, also_lf: bool = False) -> None:
+        """Count a sample of ``topic`` (lowstate, secondary_imu, odommodestate) the robot published to nobody."""
+        self._bump(topic)
+        if also_lf:
+            self._bump("lf_" + topic)
+
+    def wants_lowstate(self, *, also_lf: bool = False) -> bool:
+        return channel_matched_readers(self._low_channel) > 0 or (
+            also_lf and channel_matched_readers(self._lf_low_channel) > 0)
+
+    def wants_secondary_imu(self) -> bool:
+        return self._imu.has_readers()
+
+    def wants_odom(self, *, also_lf: bool = False) -> bool:
+        return self._odom.has_readers() or (also_lf and self._lf_odom.has_readers())
 
     def publish_secondary_imu(self, imu: ImuLike) -> None:
         """rt/secondary_imu: the torso IMU (unitree_hg IMUState_)."""
@@ -187,12 +210,11 @@ class StatePublishers:
         self._bump("sportmodestate" if ok else "sportmodestate_write_errors")
 
     def _bump(self, key: str) -> None:
-        with self._lock:
-            self._counts[key] += 1
+        counts = self._counts
+        counts[key] = counts.get(key, 0) + 1
 
     def counts(self) -> dict[str, int]:
-        with self._lock:
-            return dict(self._counts)
+        return self._counts.copy()
 
     def readers(self) -> dict[str, int]:
         """How many readers each state topic's writer has matched now: who receives it (-1: unknown)."""

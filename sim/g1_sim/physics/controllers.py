@@ -216,6 +216,10 @@ class StanceController:
         self._reference = self.poses.pose(self.poses.default_height)
         self._captured = DEFAULT_POSE.copy()
         self.q_des = DEFAULT_POSE.copy()
+        self._goal: np.ndarray | None = None  # goal()'s, for _goal_height
+        self._goal_height = self.height
+        self._arrived = False  # q_des has reached _arrived_at
+        self._arrived_at: np.ndarray | None = None
         self._zeros = np.zeros(NUM_JOINTS)
         self._ki = np.where(np.arange(NUM_JOINTS) < ARM0 + 3, integral_per_s * kp, 0.0)
         self._i_limit = integral_share * EFFORT_LIMIT
@@ -237,6 +241,8 @@ class StanceController:
     def reset(self, s: Sensed) -> None:
         self._captured = s.q.copy()
         self._captured[12:] = DEFAULT_POSE[12:]
+        self._goal = None
+        self._arrived = False
         self.q_des = s.q.copy()
         self._i_term[:] = 0.0
         self.lean[:] = 0.0
@@ -255,12 +261,22 @@ class StanceController:
         return to_heading @ err - (self.poses.com_ahead, 0.0), to_heading @ velocity
 
     def goal(self) -> np.ndarray:
-        """The pose being held once the targets arrive: captured legs bent to :attr:`height`."""
-        return self._captured + (self.poses.pose(self.height) - self._reference)
+        """The pose being held once the targets arrive: captured legs bent to :attr:`height` (read-only: kept
+        until the height or the captured pose changes, as it is asked for at every step)."""
+        if self._goal is None or self._goal_height != self.height:
+            self._goal = self._captured + (self.poses.pose(self.height) - self._reference)
+            self._goal.flags.writeable = False
+            self._goal_height = self.height
+        return self._goal
 
     def torques(self, s: Sensed) -> np.ndarray:
-        delta = self.goal() - self.q_des  # move along the straight line, so hip + knee + ankle stay balanced
-        self.q_des += delta * min(1.0, self.rate * TIMESTEP_S / max(float(np.abs(delta).max()), 1e-9))
+        goal = self.goal()
+        if not self._arrived or goal is not self._arrived_at:
+            delta = goal - self.q_des  # move along the straight line, so hip + knee + ankle stay balanced
+            largest = float(np.abs(delta).max())
+            self.q_des += delta * min(1.0, self.rate * TIMESTEP_S / max(largest, 1e-9))
+            # once there the targets stay put until the goal changes: no need to measure the way at every step
+            self._arrived, self._arrived_at = largest <= self.rate * TIMESTEP_S, goal
         lean = self.lean
         if self.balancing:
             err, velocity = self.com_state(s)
