@@ -2,7 +2,8 @@
 
 One bridge serves the whole batch (reset to its boot state between scenarios); every scenario starts a
 fresh node (EMERGENCY is latched), injects random per-request delays on CheckMode / SelectMode /
-ReleaseMode / SetFsmId (0-3 s, so in-flight calls land in every order), failing Damps, random mode
+ReleaseMode / SetFsmId (up to 1.5 s in short scenarios, 3 s in longer ones: plan.MAX_DELAY_S; so in-flight
+calls land in every order), failing Damps, random mode
 requests, loco commands, streams and body faults from several clients, both sources of the Move stream (the
 teleop on cmd_vel and a planner on cmd_vel_nav, with hand-overs and take-overs between them), sometimes a SIGKILL
 and restart of the node, then aims its e-stop at one coverage cell (plan.py, coverage.py) through the service or
