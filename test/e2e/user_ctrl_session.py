@@ -1,5 +1,5 @@
 """What the user-control e2e files share: a user's controller, the way into user control, and the sim's record
-read as they read it.
+read as they read it (and a walk of a set distance, test_getup.py's too).
 
 A user's controller here is a stiff hold of the measured pose at 500 Hz on ~/lowcmd (the sim's own tests show
 such a hold keeps the 29-dof G1 standing); its gains differ from the node's hand-over frame, so the record tells
@@ -9,11 +9,13 @@ the user's frames (kp_max USER_KP) from the node's (kp_max HOLD_KP).
 from __future__ import annotations
 
 import json
+import math
 import threading
 import time
 from collections.abc import Sequence
 
 from g1_mode_manager_msgs.msg import JointCommand
+from geometry_msgs.msg import Twist
 from sensor_msgs.msg import JointState
 
 from e2e.conftest import Stack
@@ -24,7 +26,7 @@ from g1_mode_manager.protocol.motors import JOINT_NAMES
 from harness.rate import run_at_rate
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
-from support.timing import CONTROLLER_STALL_S
+from support.timing import BODY_SAMPLE_S, CONTROLLER_STALL_S, RECORD_WAIT_S, WALK_SIM_S
 
 USER_KP, USER_KD = 250.0, 6.0
 HOLD_KP = UserCtrlConfig().hold_kp
@@ -33,6 +35,13 @@ USER_CTRL = "low_level_path:=user_ctrl"
 #: For the tests that are not about silence: the test's controller, a thread of the pytest process, may stall on a
 #: loaded machine longer than the default lowcmd_timeout_s, and the node would then rightly hand the robot back.
 STEADY = f"lowcmd_timeout_s:={CONTROLLER_STALL_S}"
+#: At rest for a pose to be held: every |dq| below a tenth of the node's own rest speed (UserCtrlConfig's 0.5 rad/s),
+#: on every body sample of 0.2 s of sim time. The walk-run controller gets there ~1.3 s after its StopMove; its
+#: balance keeps |dq| near 0.015 rad/s from then on.
+AT_REST_RAD_S = 0.05
+AT_REST_SAMPLES = round(0.2 / BODY_SAMPLE_S)
+#: How far a robot must walk to show it walks: far beyond a standing robot's balance sway (centimetres).
+WALKS_M = 0.5
 
 
 class HoldController:
@@ -100,14 +109,49 @@ def lowest_pelvis(ev, since: float = float("-inf")) -> float:
     return min(e["z"] for e in of_kind(ev, "body") if e["t"] >= since)
 
 
+def wait_at_rest(stack) -> None:
+    """Until the record's body samples show the robot at rest (AT_REST_RAD_S on AT_REST_SAMPLES samples in a row)."""
+    since = time.monotonic()
+    body: list[dict] = []
+
+    def at_rest() -> bool:
+        body[:] = of_kind(stack.record.events(since), "body")[-AT_REST_SAMPLES:]
+        return len(body) == AT_REST_SAMPLES and all(e["dq"] <= AT_REST_RAD_S for e in body)
+
+    assert wait_until(at_rest, RECORD_WAIT_S, period_s=0.05), f"never at rest: {body[-1:]}"
+
+
+def walk_forward(stack, vx: float, metres: float) -> float:
+    """Drive forward at ``vx`` on cmd_vel (20 Hz) until the robot is ``metres`` from where it stood (the sim's base
+    position), for at most WALK_SIM_S of sim time; returns how far it walked."""
+    pub = stack.cmd_vel_publisher()
+    msg = Twist()
+    msg.linear.x = vx
+    status = stack.sim.get()
+    x0, y0, _ = status["base"]["position"]
+    end = status["sim_time"] + WALK_SIM_S
+    next_look = 0.0
+    while True:
+        if time.monotonic() >= next_look:  # the sim's status every 0.2 s, as drive_sim_time reads it
+            status = stack.sim.get()
+            x, y, _ = status["base"]["position"]
+            walked = math.hypot(x - x0, y - y0)
+            if walked >= metres or status["sim_time"] >= end:
+                return walked
+            next_look = time.monotonic() + 0.2
+        pub.publish(msg)
+        time.sleep(0.05)
+
+
 def enter_walking(stack, *, rest: bool = True) -> None:
-    """HIGH_LEVEL, the robot walked for 2 s of sim time; with ``rest``, then stopped and come to rest."""
+    """HIGH_LEVEL, the robot walked for 1 s of sim time; with ``rest``, then stopped and come to rest."""
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
-    stack.drive_sim_time(0.4, 2.0)  # walking
+    stack.drive_sim_time(0.4, 1.0)  # walking: past the walk's ramp (0.3 s), the robot steps (|dq| > 2 rad/s)
     if rest:
-        wait_sim(stack, 2.5)  # the watchdog's StopMove, then the walk-run controller comes to rest (fsm stays 500):
-        # a stiff hold of a pose taken mid-step falls over, whoever holds it
+        # the watchdog's StopMove, then the walk-run controller comes to rest (fsm stays 500): a stiff hold of a
+        # pose taken mid-step falls over, whoever holds it; waited for on the record rather than for a fixed 2.5 s
+        wait_at_rest(stack)
 
 
 def enter_user_ctrl(stack, controller: HoldController) -> float:

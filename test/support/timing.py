@@ -86,3 +86,6 @@ RECORD_WAIT_S: Final = margin(10.0)
 #: The sim records the body every BODY_PERIOD_S of sim time: the node, reading rt/lowstate at 100 Hz, may see a
 #: condition up to one such period before the record's first sample of it.
 BODY_SAMPLE_S: Final = BODY_PERIOD_S
+#: Sim time a test drives the robot at most to walk its distance (WALKS_M at 0.5 m/s: ~1.5 s with the gait's start).
+#: A teleop publisher stalled on a loaded machine stops the walk (the node's watchdog) until it publishes again.
+WALK_SIM_S: Final = margin(8.0)
