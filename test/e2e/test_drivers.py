@@ -135,12 +135,16 @@ def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the
 
         # the human turns: the first non-zero teleop command takes over
         result: list[float] = []
-        teleop = threading.Thread(target=lambda: result.append(_teleop(stack, TELEOP_WZ, 1.5)), daemon=True)
+        # half a second of turns (10 at 20 Hz): the takeover is the first of them, and the ones after it show the
+        # teleop's Moves on the robot; the record is waited for, not read after a longer turn
+        teleop = threading.Thread(target=lambda: result.append(_teleop(stack, TELEOP_WZ, 0.5)), daemon=True)
         teleop.start()
         teleop.join(10.0)
         t_teleop = result[0]
         t_seen, _ = modes.wait(t_teleop, lambda m: m.driver == "teleop")
         check_latency("takeover on ~/mode", t_teleop, t_seen, TAKEOVER_VISIBLE_S)
+        assert wait_until(lambda: any(v[2] != 0.0 for _, v in _moves(stack, t_teleop)), RECORD_WAIT_S), \
+            "no teleop Move on the robot"
         moves = _moves(stack, t_hand)
         first_teleop = next(t for t, v in moves if v[2] != 0.0)
         after = [(t, v) for t, v in moves if t >= first_teleop]
