@@ -20,7 +20,8 @@ records the robot's state in the same hold of the robot's lock, so the record sh
 shows it leaves the sim (a client answered on that frame must find the state already on the record).
 
 Every BODY_PERIOD_S of sim time the body's report (temperatures, battery, remote, with injected readings
-laid over: body_report) is taken afresh and handed to ``on_body`` (the bridge's record).
+laid over: body_report) is taken afresh and handed to ``on_body`` (the bridge's record) before anything of that
+step is published, so the record shows a condition before any frame that shows it.
 """
 
 from __future__ import annotations
@@ -146,10 +147,16 @@ class SimLoop:
             if body_due:
                 self.body = body_report(robot.body(), faults.config)
             s = None
+            if on_body is not None and body_due:
+                # on the record before any frame that shows this step leaves the sim: a node that reacts to the
+                # frame must find the condition already recorded, however long this thread is preempted here
+                s = robot.lowstate()
+                on_body(t, s, self.body)
             if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
                 lf = k % self._lf_every == 0
                 if pub.wants_lowstate(also_lf=lf):
-                    s = robot.lowstate()
+                    if s is None:
+                        s = robot.lowstate()
                     pub.publish_lowstate(s, self.body, also_lf=lf)
                 else:
                     pub.count_unread("lowstate", also_lf=lf)
@@ -174,10 +181,6 @@ class SimLoop:
                 pub.publish_sportmodestate(*self._sport_state(), *robot.arm_task())
             if k % self._bms_every == 0 and not paused:
                 pub.publish_bmsstate(self.body)
-            if on_body is not None and body_due:
-                if s is None:
-                    s = robot.lowstate()
-                on_body(t, s, self.body)
             if node is not None and k % self._ros_every == 0 and node.publish_ros:
                 self._publish_ros(t, robot.lowstate() if s is None else s)
             self.rate.update(t)
