@@ -9,6 +9,7 @@ time with ROS publishing off, and the scenario is short.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 from g1_mode_manager_msgs.srv import SetMode
@@ -52,15 +53,24 @@ def two_robots(sdk_channels: int, tmp_path):
     robots: list[Robot] = []
     procs: list[ManagedProcess] = []
     try:
-        for ns, domain in (("/g1_a", sdk_channels), ("/g1_b", allocate_sdk_domain())):
-            path = tmp_path / f"{ns.strip('/')}.jsonl"
-            bridge = start_sim_bridge(domain, speed=1.0, extra_args=(  # hung: one of them goes to LOW_LEVEL
+        # The two bridges and the two nodes start at once: each start mostly waits (DDS discovery, the
+        # bridge's model and policy load), and a node needs no robot to come up. Every process still waits
+        # for its own ready line with its usual timeout; each one that came up is stopped below.
+        layout = [(ns, domain, tmp_path / f"{ns.strip('/')}.jsonl")
+                  for ns, domain in (("/g1_a", sdk_channels), ("/g1_b", allocate_sdk_domain()))]
+        with ThreadPoolExecutor(max_workers=4) as pool:
+            bridges = [pool.submit(start_sim_bridge, domain, speed=1.0, extra_args=(  # hung: one goes to LOW_LEVEL
                 "--record", str(path), "--no-ros-publish", "--gantry", "--ros-args", "-r", f"__ns:={ns}"))
-            procs.append(bridge)
-            robots.append(Robot(ns, domain, SimRecord(path), bridge, ros))
-        for robot in robots:
-            robot.node = start_mode_manager(robot.domain, remaps=(f"__ns:={robot.ns}",))
-            procs.append(robot.node)
+                for ns, domain, path in layout]
+            nodes = [pool.submit(start_mode_manager, domain, remaps=(f"__ns:={ns}",)) for ns, domain, _ in layout]
+        started = [f.result() for f in (*bridges, *nodes) if f.exception() is None]
+        procs.extend(started)
+        failed = [f.exception() for f in (*bridges, *nodes) if f.exception() is not None]
+        if failed:
+            raise failed[0]
+        for (ns, domain, path), bridge, node in zip(layout, bridges, nodes, strict=True):
+            robots.append(Robot(ns, domain, SimRecord(path), bridge.result(), ros))
+            robots[-1].node = node.result()
         for robot in robots:
             ros.wait_node_answers(f"{robot.ns}/g1_mode_manager")
         yield robots
