@@ -45,6 +45,10 @@ HOLD_KP, HOLD_KD = 300.0, 8.0
 STANDING_Z_M = 0.6
 #: Physics steps in a second of sim time (2 ms steps) and between two frames at 500 Hz.
 STEPS_PER_S = 500
+#: Sim seconds the bridge test watches the robot held by user frames, and then by the built-in controller. A
+#: robot nobody holds is below STANDING_Z_M ~0.5 s after it is let go (SimG1: 0.23 s under user control with
+#: no frames, 0.53 s damped): 2 s is four times that, and leaves ~1000 frames at 500 Hz for the >= 300 judged.
+WATCH_S = 2.0
 ALL = np.ones(NUM_JOINTS, dtype=bool)
 
 
@@ -413,12 +417,12 @@ def test_bridge_standing_switch_held_by_frames_and_caught_by_walkrun(clients: Cl
         for _ in range(20):
             c.low.Write(_frame(np.zeros(NUM_JOINTS), kp=50.0))  # rt/lowcmd: ignored
             time.sleep(0.01)
-        c.status.wait_sim_time(c.status.get()["sim_time"] + 3.0)
+        c.status.wait_sim_time(c.status.get()["sim_time"] + WATCH_S)
         st = c.status.get()
         assert st["user_ctrl"] and st["user_ctrl_option"] == "either" and st["sport"]["fsm_id"] == USER_CTRL_FSM_ID
         assert _call(c, api.LOCO_SWITCH_TO_INTERNAL_CTRL, {"data": int(InternalCtrl.WALKRUN)})[0] == api.OK
         assert _fsm(c) == WALKRUN_FSM
-    st = c.status.wait_sim_time(c.status.get()["sim_time"] + 3.0)  # no frames: the built-in controller holds it
+    st = c.status.wait_sim_time(c.status.get()["sim_time"] + WATCH_S)  # no frames: the built-in controller holds it
     print(f"frames sent {stream.sent}; status frames {st['frames']}; firmware {st['firmware']}")
     assert not st["user_ctrl"] and st["sport"]["fsm_id"] == WALKRUN_FSM
     assert st["frames"]["lowcmd"].get("user_ctrl_active", 0) >= 10 and st["frames"]["lowcmd"].get("accepted", 0) == 0
@@ -446,7 +450,7 @@ def test_bridge_standing_switch_held_by_frames_and_caught_by_walkrun(clients: Cl
     body = [e for e in of_kind(ev, "body") if e["t"] >= done_in[0]["t"] - 0.2]
     lowest = min(e["z"] for e in body)
     print(f"lowest pelvis {lowest:.3f} m over {body[-1]['st'] - body[0]['st']:.1f} s of sim time")
-    assert body[-1]["st"] - body[0]["st"] > 6.0 and lowest > STANDING_Z_M
+    assert body[-1]["st"] - body[0]["st"] > 2 * WATCH_S and lowest > STANDING_Z_M
 
 
 @pytest.mark.sim
