@@ -21,6 +21,8 @@ from support.processes import ManagedProcess
 from support.scripted_robot import events, lowstate_q, start_scripted_robot, wait_event
 
 Peer = Callable[..., ManagedProcess]
+#: How long the scripted robot holds a SelectMode's answer while the test's damp must get through.
+SELECT_HELD_S = 2.0
 
 
 def show(config: pytest.Config, text: str) -> None:
@@ -181,7 +183,9 @@ def test_damp_no_reply_arrives_flagged_no_reply(robot: UnitreeRobot, peer: Peer)
 def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobot, peer: Peer,
                                                               pytestconfig: pytest.Config) -> None:
     """The e-stop thread's damp must not wait behind a slow SelectMode in another thread."""
-    proc = peer(delays={"1002": 3.0})
+    # The damp answers within the port's 1 s rpc timeout or raises (failing the test), so a hold of 2 s leaves a
+    # second beyond it; a damp queued behind the SelectMode would return only after its answer, the thread done.
+    proc = peer(delays={"1002": SELECT_HELD_S})
     outcome: dict[str, Any] = {}
 
     def select() -> None:
@@ -199,7 +203,7 @@ def test_damp_returns_while_select_mode_is_held_by_the_server(robot: UnitreeRobo
     damp_s = time.monotonic() - start
     select_still_waiting = thread.is_alive()
     thread.join(8.0)
-    show(pytestconfig, f"damp during a SelectMode held 3 s by the server returned in {damp_s * 1e3:.1f} ms")
+    show(pytestconfig, f"damp during a SelectMode held {SELECT_HELD_S} s by the server returned in {damp_s * 1e3:.1f} ms")
     assert select_still_waiting
     assert outcome["select"] == "ok"
     order = [e["api_id"] for e in events(proc, "request") if e["api_id"] != 1]
