@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
+from functools import partial
 
 import pytest
 from g1_mode_manager_msgs.srv import SetMode
@@ -53,24 +54,20 @@ def two_robots(sdk_channels: int, tmp_path):
     robots: list[Robot] = []
     procs: list[ManagedProcess] = []
     try:
-        # The two bridges and the two nodes start at once: each start mostly waits (DDS discovery, the
-        # bridge's model and policy load), and a node needs no robot to come up. Every process still waits
-        # for its own ready line with its usual timeout; each one that came up is stopped below.
+        # The two bridges start at once, then the two nodes at once: each start mostly waits (DDS discovery, the
+        # bridge's model and policy load). Each node still starts after its robot's bridge is up, and every
+        # process waits for its own ready line with its usual timeout; each one that came up is stopped below.
         layout = [(ns, domain, tmp_path / f"{ns.strip('/')}.jsonl")
                   for ns, domain in (("/g1_a", sdk_channels), ("/g1_b", allocate_sdk_domain()))]
-        with ThreadPoolExecutor(max_workers=4) as pool:
-            bridges = [pool.submit(start_sim_bridge, domain, speed=1.0, extra_args=(  # hung: one goes to LOW_LEVEL
-                "--record", str(path), "--no-ros-publish", "--gantry", "--ros-args", "-r", f"__ns:={ns}"))
-                for ns, domain, path in layout]
-            nodes = [pool.submit(start_mode_manager, domain, remaps=(f"__ns:={ns}",)) for ns, domain, _ in layout]
-        started = [f.result() for f in (*bridges, *nodes) if f.exception() is None]
-        procs.extend(started)
-        failed = [f.exception() for f in (*bridges, *nodes) if f.exception() is not None]
-        if failed:
-            raise failed[0]
+        # hung in the gantry: one of them goes to LOW_LEVEL
+        bridges = _start_together(procs, [partial(start_sim_bridge, domain, speed=1.0, extra_args=(
+            "--record", str(path), "--no-ros-publish", "--gantry", "--ros-args", "-r", f"__ns:={ns}"))
+            for ns, domain, path in layout])
+        nodes = _start_together(procs, [partial(start_mode_manager, domain, remaps=(f"__ns:={ns}",))
+                                        for ns, domain, _ in layout])
         for (ns, domain, path), bridge, node in zip(layout, bridges, nodes, strict=True):
-            robots.append(Robot(ns, domain, SimRecord(path), bridge.result(), ros))
-            robots[-1].node = node.result()
+            robots.append(Robot(ns, domain, SimRecord(path), bridge, ros))
+            robots[-1].node = node
         for robot in robots:
             ros.wait_node_answers(f"{robot.ns}/g1_mode_manager")
         yield robots
@@ -80,6 +77,17 @@ def two_robots(sdk_channels: int, tmp_path):
             code = proc.stop()
             if code not in (0, None):
                 print(f"{proc.name} exited with {code}; output:\n{proc.output()[-3000:]}")
+
+
+def _start_together(procs: list[ManagedProcess], starts: list) -> list[ManagedProcess]:
+    """Run the ``starts`` at once; every process that came up joins ``procs`` (to be stopped), then the first
+    failure is raised."""
+    with ThreadPoolExecutor(max_workers=len(starts)) as pool:
+        futures = [pool.submit(start) for start in starts]
+    procs.extend(f.result() for f in futures if f.exception() is None)
+    for f in futures:
+        f.result()
+    return [f.result() for f in futures]
 
 
 def test_each_robot_obeys_its_own_node_and_the_global_estop_stops_both(two_robots) -> None:
