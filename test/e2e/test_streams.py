@@ -7,6 +7,7 @@ CLOCK_MONOTONIC receive times (``--record``). Every decisive assertion reads tha
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import pty
 import signal
@@ -26,6 +27,7 @@ from g1_mode_manager.protocol import api_ids
 from support.mode_manager import start_mode_manager, wait_until
 from support.processes import ManagedProcess
 from support.sim_record import SimRecord, states, velocity_of
+from support.timing import QUIET_WINDOW_S, RECORD_WAIT_S
 
 from .conftest import Stack
 
@@ -166,6 +168,11 @@ def _weight_jumps(frames: list[dict]) -> list[tuple[float, float]]:
     return [(a, b) for a, b in itertools.pairwise(ws) if abs(b - a) > ARM_STEP]
 
 
+def _lies_still(stack: Stack) -> bool:
+    status = stack.sim.get()
+    return status["body"]["posture"] == "on_back" and math.hypot(*status["base"]["linear_velocity"]) < 0.1
+
+
 def test_arm_weight_ramps_only_while_the_robot_stands_and_starts_from_zero(recorded) -> None:
     # What is judged here is the arm relay alone, so the body checks are off.
     stack, record = recorded("body_checks_enabled:=false")
@@ -173,12 +180,15 @@ def test_arm_weight_ramps_only_while_the_robot_stands_and_starts_from_zero(recor
     assert stack.loco("damp").success  # the robot falls onto its back, damped: it ignores arm_sdk
     publish = _arm_publisher(stack)
     with publishing(publish, 20.0):
-        time.sleep(3.0)  # longer than the 2 s ramp
+        # until the robot lies (lie_to_stand needs that): arm commands flow all along, and a node that ramped
+        # while the robot ignored them would be well past one step by the first frame the robot takes, as the
+        # lie-to-stand alone takes ~5.6 s (longer than the 2 s ramp)
+        assert wait_until(lambda: _lies_still(stack), RECORD_WAIT_S), "the damped robot never lay still on its back"
         r = stack.loco("lie_to_stand")  # up from the floor: a stand_up would be refused, the robot lies
         assert r.success, r.message
         t_up = time.monotonic()
-        assert wait_until(lambda: any(f["ok"] for f in _frames(record, "arm_sdk", t_up)), 10.0)
-        time.sleep(1.0)
+        # a quarter of the 2 s ramp taken by the standing robot (25 frames at 50 Hz): its start, step by step
+        assert wait_until(lambda: sum(f["ok"] for f in _frames(record, "arm_sdk", t_up)) >= 25, RECORD_WAIT_S)
     taken = [f for f in _frames(record, "arm_sdk") if f["ok"]]
     print(f"first weights the standing robot took: {[round(f['w'], 3) for f in taken[:5]]}")
     assert taken[0]["w"] <= ARM_STEP, "the robot got a weight ramped while it ignored arm_sdk"
@@ -193,16 +203,19 @@ def test_arm_weight_never_jumps_freezes_on_link_loss_and_ramps_out_at_shutdown(r
         assert wait_until(lambda: any(f["w"] == 1.0 for f in _frames(record, "arm_sdk")), 6.0)
         stack.set_faults({"pause_state": True})  # the robot stops publishing its state
         t_lost = time.monotonic()
-        time.sleep(1.5)
-        stack.set_faults({})
-        during = _frames(record, "arm_sdk", t_lost + 0.6)  # the link timeout is 0.5 s
-        time.sleep(0.5)
-        _stall(stack.node, 0.5)
+        # the link timeout is 0.5 s: 0.4 s of it lost past 0.6 s is 20 frames' time at 50 Hz, and a weight
+        # that moved while unwatched shows in the first frame (a step of 0.01) or as a jump when the link is back
         time.sleep(1.0)
+        t_back = time.monotonic()
+        stack.set_faults({})
+        time.sleep(0.3)  # the link is back (the robot's state at 500 Hz) before the node is stalled
+        _stall(stack.node, 0.5)
+        time.sleep(0.5)  # 25 frames' time after the stall: a jump on resuming is in its first frames
         t_stop = time.monotonic()
         stack.node.proc.send_signal(signal.SIGINT)  # shutdown while arm commands still arrive
         stack.node.proc.wait(15.0)
     frames = _settled(lambda: _frames(record, "arm_sdk"))
+    during = [f for f in _frames(record, "arm_sdk", t_lost + 0.6) if f["t"] < t_back]  # the link timeout is 0.5 s
     print(f"{len(frames)} arm_sdk frames; during link loss: {sorted({f['w'] for f in during})}; "
           f"last weights {[round(f['w'], 3) for f in frames[-3:]]}")
     assert all(f["w"] == 1.0 for f in during), "the weight moved while the robot could not be watched"
@@ -216,13 +229,21 @@ def test_move_ramp_counts_only_acknowledged_moves_and_shutdown_stops_the_robot(r
     stack, record = recorded()
     assert stack.set_mode("high_level").success  # lock stand (fsm 4): the robot refuses Move
     pub = _publisher(stack, Twist, "/cmd_vel")
+    t_refused = time.monotonic()
     with publishing(lambda: pub.publish(_twist(0.8)), 20.0):
-        time.sleep(1.5)
+        # three Moves the robot refused: a limiter that counted them would take its first acknowledged Move
+        # three steps from standstill
+        assert wait_until(lambda: len([e for e in _moves(record, "done", t_refused) if e["code"] != 0]) >= 3,
+                          RECORD_WAIT_S), "the robot in the lock stand never refused a Move"
         r = stack.loco("start")
         assert r.success, r.message
         time.sleep(0.2)
+        t_stall = time.monotonic()
         _stall(stack.node, 0.5)
-        time.sleep(1.5)
+        # the ramp goes on to 0.8 m/s after the stall: every step of it after the stall is on the record
+        assert wait_until(lambda: any(e["code"] == 0 and abs(velocity_of(e)[0] - 0.8) < 1e-3
+                                      for e in _moves(record, "done", t_stall)), RECORD_WAIT_S), \
+            "the robot never took a Move at full speed after the stall"
         stack.node.proc.send_signal(signal.SIGINT)
         stack.node.proc.wait(15.0)
     received = _settled(lambda: _moves(record))
@@ -246,12 +267,20 @@ def test_unanswered_moves_and_stop_moves_end_in_a_stop_move_the_robot_received(r
     assert wait_until(lambda: any(_is_stop(e) for e in _moves(record, since=t_quiet)), 6.0), \
         "a timed-out Move was never followed by a StopMove"
     stack.set_faults({})
-    time.sleep(2.0)
+    # every Move held 1.3 s (the StopMove too) has been answered: none lands in the part below
+    assert wait_until(lambda: len(_moves(record, "done")) >= len(_moves(record)), RECORD_WAIT_S), \
+        "Moves held by the robot were never answered"
     # A StopMove that is lost: sent again until the robot answers it.
+    t_walk = time.monotonic()
     with publishing(lambda: pub.publish(_twist(0.5)), 20.0):
-        time.sleep(1.0)
+        # walking again: the robot acknowledged a Move (the watchdog then owes it a StopMove)
+        assert wait_until(lambda: any(e["code"] == 0 and not _is_stop(e) for e in _moves(record, "done", t_walk)),
+                          RECORD_WAIT_S), "the robot never took a Move again"
         stack.set_faults({"drop": [SET_VELOCITY]})
-    time.sleep(1.6)  # the watchdog's StopMove is dropped
+    t_drop = time.monotonic()
+    # the watchdog's StopMove reached the robot and was dropped (never answered): what follows is a new one
+    assert wait_until(lambda: any(_is_stop(e) for e in _moves(record, since=t_drop)), RECORD_WAIT_S), \
+        "no StopMove after the commands stopped"
     t_back = time.monotonic()
     stack.set_faults({})
     assert wait_until(lambda: any(_is_stop(e) for e in _moves(record, "done", t_back)), 6.0), \
@@ -306,7 +335,8 @@ def test_g1ctl_drive_stops_publishing_without_keys_and_sub_dead_band_is_not_sent
     pub = _publisher(stack, Twist, "/cmd_vel")
     t_creep = time.monotonic()
     with publishing(lambda: pub.publish(_twist(0.05)), 20.0):  # below the robot's dead band
-        time.sleep(2.0)
+        # a node that sent them would send ~10 at its 10-20 Hz in this window, not at most one
+        time.sleep(QUIET_WINDOW_S)
     sent = _moves(record, since=t_creep)
     assert len(sent) <= 1, f"{len(sent)} useless sub-threshold Moves"
 
