@@ -16,6 +16,7 @@ from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.sim_record import is_damp, requests, velocity_of
+from support.timing import QUIET_WINDOW_S, RECORD_WAIT_S, STEP_HELD_S
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
@@ -32,8 +33,7 @@ def _start_walking(stack) -> None:
 
 def test_walks_on_cmd_vel_and_watchdog_stops_it(shared_stack_factory) -> None:
     stack = shared_stack_factory()
-    _start_walking(stack)
-    time.sleep(1.0)
+    _start_walking(stack)  # the robot shows fsm 500: the walk is measured from here, its start's steps included
     before = stack.sim.get()
     x0, y0, _ = before["base"]["position"]
     stack.drive(0.5, 4.0)
@@ -61,11 +61,13 @@ def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(shared_stack_fact
     assert stack.set_mode("idle").success
     moves = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
     x0, y0, _ = stack.position()
-    stack.drive(0.5, 2.0)
+    # each window: a node that forwarded cmd_vel would send ~10 Moves (ramp at 20 Hz, keep-alive at 10 Hz) in it,
+    # and the count below must not move at all
+    stack.drive(0.5, QUIET_WINDOW_S)
     x1, y1, _ = stack.position()
     assert math.hypot(x1 - x0, y1 - y0) < 0.05
     assert stack.set_mode("low_level").success
-    stack.drive(0.5, 2.0)
+    stack.drive(0.5, QUIET_WINDOW_S)
     assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) == moves
 
 
@@ -83,10 +85,12 @@ def test_estop_from_low_level_reselects_the_service_then_damps(shared_stack_fact
     assert stack.requests(SWITCHER, api_ids.MS_SELECT_MODE) == selects + 1
 
 
-def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(shared_stack_factory) -> None:
+def test_estop_during_a_held_select_mode_reaches_damp_fast(shared_stack_factory) -> None:
     # hung in the gantry, as for any low-level work: a limp robot falling in LOW_LEVEL trips a body check (FAULT)
-    # before the mode change below on a loaded machine
-    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): 5.0}}, bridge_args=("--gantry",))
+    # before the mode change below on a loaded machine. Every SelectMode is held STEP_HELD_S (2 s): an e-stop that
+    # waited for the transition's would reach the robot about that long after its request, twice the bound below.
+    stack = shared_stack_factory(faults={"delay_s": {str(api_ids.MS_SELECT_MODE): STEP_HELD_S}},
+                                 bridge_args=("--gantry",))
     assert stack.set_mode("low_level").success
     selects = stack.requests(SWITCHER, api_ids.MS_SELECT_MODE)
     with ThreadPoolExecutor(1) as pool:
@@ -99,11 +103,11 @@ def test_estop_during_a_select_mode_delayed_5_s_reaches_damp_fast(shared_stack_f
         reached = wait_until(lambda: stack.requests(SPORT, api_ids.LOCO_SET_FSM_ID) > damps, 2.0, period_s=0.002)
         mode_reply = pending.result(30.0)
     assert wait_until(lambda: bool(estop_result), 30.0)
-    # the robot's record: when the first Damp arrived, against the SelectMode the sim holds for 5 s (an e-stop
+    # the robot's record: when the first Damp arrived, against the SelectMode the sim holds for 2 s (an e-stop
     # that waited for it would come seconds late; the figure itself is the bench's business)
     first_damp = next(e["t"] for e in requests(stack.record.events(since=t0)) if is_damp(e))
     latency = first_damp - t0
-    print(f"e-stop during a 5 s SelectMode: first Damp received by the robot {latency * 1000:.1f} ms after the "
+    print(f"e-stop during a {STEP_HELD_S:.0f} s SelectMode: first Damp received by the robot {latency * 1000:.1f} ms after the "
           f"request; e-stop finished: {estop_result[0].message}")
     assert reached and latency < 1.0
     assert mode_reply.mode == Mode.EMERGENCY
@@ -205,9 +209,10 @@ def test_arm_cmd_moves_a_shoulder_through_arm_sdk_and_hands_it_back(shared_stack
     assert wait_until(lambda: arm.get_subscription_count() > 0, 10.0)
     assert wait_until(lambda: node_readers() == 0, 6.0, period_s=0.1), "rt/lowstate still received by the idle node"
     command = JointState(name=["left_shoulder_pitch_joint"], position=[target])
-    # the ramp 2 s, then hold: at least 4 s, longer while a loaded sim has not followed yet
+    # at least the 2 s ramp (the weight at 1: the shoulder is the node's), then until the shoulder is there,
+    # longer while a loaded sim has not followed yet
     at_target = _publish_until(lambda: arm.publish(command), lambda: abs(q("left_shoulder_pitch_joint") - target) < 0.15,
-                               0.05, 4.0, 12.0)
+                               0.05, 2.0, 12.0)
     assert node_readers() == 1, "the arm commands did not subscribe rt/lowstate again"
     reached = q("left_shoulder_pitch_joint")
     assert at_target, f"shoulder at {reached:.3f}, target {target}"
@@ -260,8 +265,19 @@ def test_losing_the_robot_link_is_an_error_and_stops_forwarding(shared_stack_fac
     stack.set_faults({})
     assert wait_until(lambda: link_levels and link_levels[-1][0] == ok_level, 5.0)
     resumed = stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY)
-    stack.drive(0.3, 1.0)
-    assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) > resumed  # forwarding resumes with the link
+    # forwarding resumes with the link: driving until the robot receives a Move again
+    assert _drive_until(stack, 0.3, lambda: stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) > resumed, RECORD_WAIT_S)
+
+
+def _drive_until(stack, vx: float, done, timeout_s: float) -> bool:
+    """Drive in short spells, at least one, until ``done()`` or ``timeout_s``; whether it was done."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        stack.drive(vx, 0.1)
+        if done():
+            return True
+        if time.monotonic() > deadline:
+            return False
 
 
 def test_estop_retries_damps_the_robot_failed_within_the_same_request(shared_stack_factory) -> None:
