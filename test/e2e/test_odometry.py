@@ -130,7 +130,17 @@ def test_moves_acknowledged_by_a_robot_that_does_not_walk_are_reported(stack, he
         r = stack.loco("start")
         assert r.success, r.message
     since = time.monotonic()
-    driver = threading.Thread(target=stack.drive, args=(0.5, 4.0), daemon=True)
+    stop_driving = threading.Event()
+
+    def drive() -> None:  # at most 4 s, until what is judged below is shown
+        while not stop_driving.is_set() and time.monotonic() < since + 4.0:
+            stack.drive(0.5, 0.1)
+
+    def acknowledged() -> list:
+        return [e for e in requests(stack.record.events(since), api_ids.LOCO_SET_VELOCITY, kind="done")
+                if e["code"] == 0]
+
+    driver = threading.Thread(target=drive, daemon=True)
     driver.start()
 
     def warned() -> bool:
@@ -139,10 +149,11 @@ def test_moves_acknowledged_by_a_robot_that_does_not_walk_are_reported(stack, he
     assert wait_until(warned, 4.0), [m.warnings for m in stack.modes()[-3:]]
     reported = time.monotonic() - since
     assert wait_until(lambda: "not walking" in (heard.status("walking") or ""), 3.0), heard.status("walking")
+    # the Moves stop once both reports are out and the robot acknowledged enough of them (within the 4 s drive)
+    wait_until(lambda: len(acknowledged()) > 10, max(0.0, since + 4.0 - time.monotonic()))
+    stop_driving.set()
     driver.join()
-    acknowledged = [e for e in requests(stack.record.events(since), api_ids.LOCO_SET_VELOCITY, kind="done")
-                    if e["code"] == 0]
-    assert len(acknowledged) > 10, "the robot did not acknowledge the Moves"
+    assert len(acknowledged()) > 10, "the robot did not acknowledge the Moves"
     moved = [math.hypot(e["true_x"] - e0["true_x"], e["true_y"] - e0["true_y"])
              for e0 in of_kind(stack.record.events(since), "odom")[:1] for e in of_kind(stack.record.events(since), "odom")]
     print(f"reported {reported:.1f} s after the first Move (not_walking_after_s 1.0, ~/mode at 1 Hz); "
