@@ -11,18 +11,42 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from support.cyclone010 import STOCK_CLIENT, json_lines, side_python
 from support.processes import ManagedProcess
-from support.sim_bridge import shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
+from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
 from support.sim_record import SimRecord, states
 
 pytestmark = pytest.mark.sim
 
 CLIENT_TIMEOUT_S = 60.0
+
+
+@pytest.fixture(scope="module")
+def _bridge_record(sdk_channels: int, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """One bridge for the file (its start, MuJoCo model and policy, takes seconds): each test gets it reset."""
+    path = tmp_path_factory.mktemp("stock_clients") / "robot.jsonl"
+    bridge = start_sim_bridge(sdk_channels, speed=1.0, extra_args=("--record", str(path)))
+    yield path
+    code = bridge.stop()
+    if code not in (0, None):
+        print(f"sim_bridge exited with {code}:\n{bridge.output()}")
+
+
+@pytest.fixture
+def robot(_bridge_record: Path) -> tuple[SimStatus, SimRecord]:
+    """The file's bridge back to its boot state (a fresh robot: standing, "ai", no faults, counters at zero), with
+    a view of its record from just before the reset."""
+    status = shared_sim_status()  # unicast-only (our configuration), reading while the stock clients drive
+    status.wait_ready(15.0)
+    record = SimRecord(_bridge_record, from_now=True)
+    status.reset()
+    return status, record
 
 
 def _run_stock_client(python: str, domain: int, *args: str) -> list[dict]:
@@ -54,12 +78,8 @@ def _position(status: dict) -> np.ndarray:
     return np.array(status["base"]["position"][:2])
 
 
-def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_channels: int, sim_bridge_factory,  # noqa: F811
-                                                                         tmp_path) -> None:
-    path = tmp_path / "robot.jsonl"
-    sim_bridge_factory(speed=1.0, extra_args=("--record", str(path)))
-    record = SimRecord(path)
-    status = shared_sim_status()  # unicast-only (our configuration), reading while the stock clients drive
+def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_channels: int, robot) -> None:
+    status, record = robot
     s0 = status.wait_ready()
 
     # cyclonedds 11 + the robot type fix + plain ChannelFactoryInitialize(d, "lo"): multicast discovery.
@@ -93,19 +113,14 @@ def test_stock_clients_on_cyclone_11_multicast_and_on_0_10_walk_the_sim(sdk_chan
     assert status.get()["sport"]["fsm_id"] == 1
 
 
-def test_unitree_loco_example_posture_options_behave_as_documented(sdk_channels: int, sim_bridge_factory,  # noqa: F811
-                                                                    tmp_path) -> None:
+def test_unitree_loco_example_posture_options_behave_as_documented(sdk_channels: int, robot) -> None:
     """The G1 loco example's Lie2StandUp (the robot on its back, after a Damp) gets the robot up; a StandUp of
     the lying robot answers 0 and leaves it down; StandUp2Squat squats a standing robot (fsm 706)."""
-    path = tmp_path / "robot.jsonl"
-    sim_bridge_factory(speed=1.0, extra_args=("--record", str(path)))
-    status = shared_sim_status()
-    status.wait_ready()
+    status, record = robot
     lines = _run_stock_client(sys.executable, sdk_channels, "--type-fix", "getup", "walk", "stand", "squat")
     getup = _step(lines, "getup")
     assert (getup["stand_up_code"], getup["after_stand_up"]) == (0, 1), getup  # answered 0, stayed damped
     assert (getup["static"], getup["fsm"]) == (0, 702), getup
-    record = SimRecord(path)
     seen = states(record.events(since=_step(lines, "connected")["t"]))
     fsms = [s["fsm"] for s in seen if s["t"] <= getup["t"]]
     assert 4 not in fsms and fsms[-1] == 702, fsms  # the StandUp never reached the controller's state
