@@ -93,6 +93,30 @@ class Stack:
             pub.publish(msg)
             time.sleep(1.0 / rate_hz)
 
+    def walk_forward(self, vx: float, metres: float) -> float:
+        """Drive forward at ``vx`` on cmd_vel (20 Hz) until the robot is ``metres`` from where it stood (the sim's
+        base position), for at most WALK_SIM_S of sim time; returns how far it walked. A teleop stalled on a loaded
+        machine stops the walk (the node's watchdog) for a while: a fixed drive time would then fall short."""
+        from support.timing import WALK_SIM_S
+
+        pub = self.cmd_vel_publisher()
+        msg = Twist()
+        msg.linear.x = vx
+        status = self.sim.get()
+        x0, y0, _ = status["base"]["position"]
+        end = status["sim_time"] + WALK_SIM_S
+        next_look = 0.0
+        while True:
+            if time.monotonic() >= next_look:  # the sim's status every 0.2 s, as drive_sim_time reads it
+                status = self.sim.get()
+                x, y, _ = status["base"]["position"]
+                walked = math.hypot(x - x0, y - y0)
+                if walked >= metres or status["sim_time"] >= end:
+                    return walked
+                next_look = time.monotonic() + 0.2
+            pub.publish(msg)
+            time.sleep(0.05)
+
     def cmd_vel_publisher(self):
         if not hasattr(self, "_cmd_vel"):
             self._cmd_vel = self.ros.node.create_publisher(Twist, f"{self.ns}/cmd_vel", 10)

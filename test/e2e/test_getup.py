@@ -12,7 +12,7 @@ import time
 import pytest
 from g1_mode_manager_msgs.msg import Mode as ModeMsg
 
-from e2e.user_ctrl_session import WALKS_M, walk_forward
+from e2e.user_ctrl_session import WALKS_M
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 from support.mode_manager import wait_until
@@ -139,7 +139,7 @@ def test_a_walking_robot_pushed_over_is_walking_again_after_clear_fault_and_reco
     print(recover.stdout)
 
     assert stack.loco("start").success
-    walked = walk_forward(stack, 0.5, WALKS_M)
+    walked = stack.walk_forward(0.5, WALKS_M)
     step(f"start, walked {walked:.2f} m")
     for name, t, shown in steps:
         print(f"{t:6.2f} s  {name}: {shown}")

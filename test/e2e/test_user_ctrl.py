@@ -29,7 +29,6 @@ from e2e.user_ctrl_session import (
     lowest_pelvis,
     no_user_frame_before_1000,
     wait_sim,
-    walk_forward,
 )
 from g1_mode_manager.core.user_ctrl import UNSUPPORTED, UserCtrlConfig
 from g1_mode_manager.protocol import api_ids as api
@@ -54,7 +53,7 @@ def test_walking_to_user_control_and_back_to_walking(shared_stack_factory) -> No
     print(f"set_mode high_level: {r.message} ({(time.monotonic() - t_out) * 1000:.0f} ms)")
     assert r.success, r.message
     controller.stop()
-    walked = walk_forward(stack, 0.5, WALKS_M)
+    walked = stack.walk_forward(0.5, WALKS_M)
     print(f"walked {walked:.2f} m after the hand-back")
     assert walked >= WALKS_M, f"walked only {walked:.2f} m"
     stack.drive_sim_time(0.0, 1.0)

@@ -1,5 +1,5 @@
 """What the user-control e2e files share: a user's controller, the way into user control, and the sim's record
-read as they read it (and a walk of a set distance, test_getup.py's too).
+read as they read it.
 
 A user's controller here is a stiff hold of the measured pose at 500 Hz on ~/lowcmd (the sim's own tests show
 such a hold keeps the 29-dof G1 standing); its gains differ from the node's hand-over frame, so the record tells
@@ -9,13 +9,11 @@ the user's frames (kp_max USER_KP) from the node's (kp_max HOLD_KP).
 from __future__ import annotations
 
 import json
-import math
 import threading
 import time
 from collections.abc import Sequence
 
 from g1_mode_manager_msgs.msg import JointCommand
-from geometry_msgs.msg import Twist
 from sensor_msgs.msg import JointState
 
 from e2e.conftest import Stack
@@ -26,7 +24,7 @@ from g1_mode_manager.protocol.motors import JOINT_NAMES
 from harness.rate import run_at_rate
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
-from support.timing import BODY_SAMPLE_S, CONTROLLER_STALL_S, RECORD_WAIT_S, WALK_SIM_S
+from support.timing import BODY_SAMPLE_S, CONTROLLER_STALL_S, RECORD_WAIT_S
 
 USER_KP, USER_KD = 250.0, 6.0
 HOLD_KP = UserCtrlConfig().hold_kp
@@ -119,28 +117,6 @@ def wait_at_rest(stack) -> None:
         return len(body) == AT_REST_SAMPLES and all(e["dq"] <= AT_REST_RAD_S for e in body)
 
     assert wait_until(at_rest, RECORD_WAIT_S, period_s=0.05), f"never at rest: {body[-1:]}"
-
-
-def walk_forward(stack, vx: float, metres: float) -> float:
-    """Drive forward at ``vx`` on cmd_vel (20 Hz) until the robot is ``metres`` from where it stood (the sim's base
-    position), for at most WALK_SIM_S of sim time; returns how far it walked."""
-    pub = stack.cmd_vel_publisher()
-    msg = Twist()
-    msg.linear.x = vx
-    status = stack.sim.get()
-    x0, y0, _ = status["base"]["position"]
-    end = status["sim_time"] + WALK_SIM_S
-    next_look = 0.0
-    while True:
-        if time.monotonic() >= next_look:  # the sim's status every 0.2 s, as drive_sim_time reads it
-            status = stack.sim.get()
-            x, y, _ = status["base"]["position"]
-            walked = math.hypot(x - x0, y - y0)
-            if walked >= metres or status["sim_time"] >= end:
-                return walked
-            next_look = time.monotonic() + 0.2
-        pub.publish(msg)
-        time.sleep(0.05)
 
 
 def enter_walking(stack, *, rest: bool = True) -> None:

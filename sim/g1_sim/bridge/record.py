@@ -19,7 +19,7 @@ of the machine, so a test can compare it with the moment it sent something). Kin
   (sim time, the sample's stamp), the estimate as published (float32, rounded to 1e-6): ``x``, ``y`` (m),
   ``yaw`` (rad, rpy[2]), ``vx``, ``vy`` (m/s, odometry frame), ``wz`` (rad/s, yaw_speed); and the truth:
   ``true_x``, ``true_y``, ``true_yaw`` (the pelvis in the world frame, which is the odometry frame at the
-  start). ``t`` is when the sample was written.
+  start). ``t`` is when the sample was written, before it was published.
 
 This is what end-to-end and chaos tests judge by: the robot's side, never the node's belief.
 """

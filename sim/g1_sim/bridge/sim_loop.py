@@ -11,9 +11,9 @@ surprise to it. It goes on when rt/lowstate alone is frozen (another topic), and
 
 rt/odommodestate (500 Hz) and rt/lf/odommodestate (every 25th of its samples: 20 Hz) carry the robot's
 state estimate (firmware.odometry) while a high-level service is active only, as the robot does; each
-rt/lf/odommodestate sample is handed to ``on_odom`` (the bridge's record) with the truth beside it. A torso IMU
-or odometry sample, or an rt/lowstate frame, that no reader has matched and nothing records is not computed
-(streams.StatePublishers).
+rt/lf/odommodestate sample is handed to ``on_odom`` (the bridge's record) with the truth beside it, before it is
+published. A torso IMU or odometry sample, or an rt/lowstate frame, that no reader has matched and nothing
+records is not computed (streams.StatePublishers).
 
 rt/sportmodestate's (fsm_id, fsm_mode) is read through ``sport_state`` when one is given: the bridge's one
 records the robot's state in the same hold of the robot's lock, so the record shows a state before any frame that
@@ -172,9 +172,9 @@ class SimLoop:
                 # nobody reads or records need not be computed
                 if recorded or pub.wants_odom(also_lf=lf):
                     odom = robot.odometry()
-                    pub.publish_odom(t, odom, also_lf=lf)
-                    if recorded:
+                    if recorded:  # on the record before the sample leaves the sim, as the body's
                         self._on_odom(t, odom)
+                    pub.publish_odom(t, odom, also_lf=lf)
                 else:
                     pub.count_unread("odommodestate", also_lf=lf)
             if k % self._sport_every == 0 and not paused:
