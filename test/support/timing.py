@@ -3,8 +3,8 @@
 A test asserts the order and the outcome of what the robot (the sim's record) shows; it asserts a time only
 where the time is the promise. Two kinds of numbers live here:
 
-- **Goals**: reaction times the product promises (a LOW_LEVEL damping frame within 50 ms of a fall...). Three
-  test workers and their sims load both cores of a small machine, and a node starved by them has reacted in
+- **Goals**: reaction times the product promises (a LOW_LEVEL damping frame within 50 ms of a fall...). The
+  suite's test workers and their sims load both cores of a small machine, and a node starved by them has reacted in
   1.9 s where alone it reacts in 17 ms, so the suite asserts a goal only when run alone for it
   (``G1_TIMING=strict``: ``make latency``); otherwise it prints the figure and asserts order.
 - **Margins**: how long a test waits for something that must happen at all, or a bound that separates two
