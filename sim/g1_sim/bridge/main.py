@@ -281,7 +281,8 @@ class Bridge:
         at = self.subscribers.arrival(topic, content_crc) if hasattr(self, "subscribers") else None
         if topic == self._user_lowcmd_topic:  # the switch to fsm 1000 is on the record before any user frame it let through
             self._record_state()
-        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc)
+        late = {"late": True} if at is None else {}  # the handler's own stamp: the frame arrived before it
+        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc, **late)
 
     def _body(self, sim_time: float, s: Any, report: Any) -> None:
         """The record's ``body`` event (every 10 ms of sim time): what a body supervisor's checks read."""

@@ -9,7 +9,9 @@ of the machine, so a test can compare it with the moment it sent something). Kin
 * ``frame``: an rt/lowcmd, rt/user_lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
   ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok",
   "none" = left 0, "wrong"; rt/lowcmd and rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` as for
-  ``req``.
+  ``req``; ``late`` (present and true) when ``t`` is the frame handler's own stamp because the arrival listener
+  lost the race for the GIL (arrivals.py): the frame arrived earlier than ``t``. One reader handles a topic's
+  frames in arrival order, so the file's order of one topic's frames is their arrival order.
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
   ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``. A state is on the record before
   any rt/sportmodestate frame or RPC reply shows it; fsm 1000 is user control, and its ``state`` line is
