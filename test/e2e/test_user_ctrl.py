@@ -91,7 +91,10 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
     # lowcmd_timeout_s before the kill, and then the node rightly hands the robot back at that stall
     entered = next(e["t"] for e in ev if e["k"] == "state" and e["fsm"] == USER_CTRL_FSM_ID)
     back = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= entered)
-    silent_since = max(e["t"] for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["t"] <= back["t"])
+    # (a controller stalled from the entry on, as a fresh clone's loaded run once had it, never drove: its silence
+    # began at the entry)
+    silent_since = max((e["t"] for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["t"] <= back["t"]),
+                       default=entered)
     check_latency("controller silent -> hand-back request on the robot", silent_since, back["t"], HAND_BACK_S)
     print(f"the controller was {'stopped' if silent_since >= killed - 0.05 else 'stalled'} at its last frame")
     assert json.loads(back["p"])["data"] == InternalCtrl.WALKRUN
