@@ -91,7 +91,7 @@ def test_controller_killed_hands_the_robot_back_standing(shared_stack_factory) -
     # lowcmd_timeout_s before the kill, and then the node rightly hands the robot back at that stall
     entered = next(e["t"] for e in ev if e["k"] == "state" and e["fsm"] == USER_CTRL_FSM_ID)
     back = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= entered)
-    # (a controller stalled from the entry on, as a fresh clone's loaded run once had it, never drove: its silence
+    # (a controller stalled from the entry on, which a loaded machine can do to the test's thread, never drove: its silence
     # began at the entry)
     silent_since = max((e["t"] for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP and e["t"] <= back["t"]),
                        default=entered)
@@ -261,7 +261,7 @@ def test_entry_straight_from_walking_waits_for_rest(shared_stack_factory) -> Non
     print(f"7110 sent {(switch['t'] - t0) * 1000:.0f} ms after the request; largest |dq| meanwhile "
           f"{max(e['dq'] for e in body):.2f} rad/s, at the switch {body[-1]['dq']:.2f} rad/s")
     # the node judged rest on a frame it read before sending 7110; the record samples every 10 ms of sim time, so
-    # the robot at rest shows in one of the last samples before the switch, not always in the very last (0.501 once)
+    # the robot at rest shows in one of the last samples before the switch, not always in the very last
     assert min(e["dq"] for e in body[-3:]) <= UserCtrlConfig().rest_speed_rad_s, [e["dq"] for e in body[-5:]]
     assert lowest_pelvis(ev, t0) > STANDING_Z_M
     assert stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS
