@@ -21,12 +21,7 @@ from typing import Any, TypeVar
 
 from g1_mode_manager.protocol import api_ids as api
 from support.sim_record import SimRecord, requests
-
-#: The robot handles a request within this of receiving it, or it is slow (the sim's handlers take
-#: milliseconds; the bound leaves room for a loaded machine, and stays far below the clients' timeouts).
-HANDLED_WITHIN_S = 1.0
-#: How long the record may lag behind the call's timeout (it is line-buffered, written by another process).
-RECORD_SETTLE_S = 1.0
+from support.timing import HANDLED_WITHIN_S, RECORD_SETTLE_S
 
 Result = TypeVar("Result", int, tuple[int, Any])
 

@@ -93,3 +93,9 @@ WALK_SIM_S: Final = margin(8.0)
 #: on the sim's record, not by the wait): long enough for a loaded machine to deliver the request, which the
 #: record must show received before the verdict.
 FAULTY_ROBOT_RPC_TIMEOUT_S: Final = margin(1.0)
+#: The robot handles a request within this of receiving it, or it is slow (the sim's handlers take milliseconds;
+#: the bound leaves room for a loaded machine, and stays far below the clients' timeouts).
+HANDLED_WITHIN_S: Final = margin(1.0)
+#: How long the sim's record may lag behind an SDK call's timeout before the call is judged on it (the record is
+#: line-buffered and written by another process, a delayed answer by the sim's timer thread).
+RECORD_SETTLE_S: Final = margin(1.0)
