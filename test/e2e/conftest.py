@@ -252,8 +252,13 @@ def shared_stack_factory(_shared_bridge: _SharedBridge) -> Iterator:
         ros.wait_node_answers()
         stack = Stack(bridge, node, ros, sim, record, baseline=baseline)
         stack.match_estop()
-        stack.set_faults(faults or {})  # the reset cleared the robot's; the parameter must say so too
-        stack.set_gantry("--gantry" in bridge_args)
+        # the reset cleared the robot's faults (and its parameter) and kept the gantry as it was: each is set only
+        # where the test needs it otherwise, since a call to the bridge's parameter service waits for this new
+        # client to discover it
+        if faults:
+            stack.set_faults(faults)
+        if baseline["body"]["gantry"] != ("--gantry" in bridge_args):
+            stack.set_gantry("--gantry" in bridge_args)
         return stack
 
     yield factory

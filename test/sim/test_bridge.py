@@ -359,7 +359,7 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, si
     from nav_msgs.msg import Odometry
     from rcl_interfaces.msg import Parameter as ParameterMsg
     from rcl_interfaces.msg import ParameterType, ParameterValue
-    from rcl_interfaces.srv import SetParameters
+    from rcl_interfaces.srv import GetParameters, SetParameters
     from rclpy.executors import SingleThreadedExecutor
     from sensor_msgs.msg import JointState
 
@@ -421,6 +421,17 @@ def test_faults_at_run_time_drop_and_pause_state_ros_topics(clients: Clients, si
         assert call(loco, api.LOCO_GET_BALANCE_MODE) == (0, {"data": 0})  # drop was replaced
         assert set_faults("").successful
         assert lowstate.fresh() is not None
+
+        # the sim's reset clears the faults, and the parameter says so: the same faults set again act again
+        assert set_faults('{"drop": [7003]}').successful
+        status.reset()
+        get_params = node.create_client(GetParameters, "/g1_sim_bridge/get_parameters")
+        assert get_params.wait_for_service(10.0)
+        future = get_params.call_async(GetParameters.Request(names=["faults"]))
+        assert wait_until(future.done, 10.0)
+        assert future.result().values[0].string_value == "" and status.get()["faults"]["drop"] == []
+        assert set_faults('{"drop": [7003]}').successful and status.get()["faults"]["drop"] == [7003]
+        assert set_faults("").successful
     finally:
         executor.shutdown()
         spin.join(5.0)

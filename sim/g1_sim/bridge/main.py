@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -179,6 +179,7 @@ class Bridge:
         node.on_faults = self.faults.set_json
         node.on_speed = self.pacer.set_speed
         node.on_gantry = self.set_gantry
+        self._faults_cleared: Callable[[], None] = node.faults_cleared
         t0 = time.monotonic()
         self._gantry = p.gantry  # a rig setting: a reset keeps it
         self._user_ctrl = user_ctrl  # the firmware option unless the faults' user_ctrl says otherwise
@@ -237,6 +238,7 @@ class Bridge:
         for server in self.servers:
             server.cancel_delayed()
         self.faults.set(FaultConfig())
+        self._faults_cleared()
         self.robot.swap(self._make_robot())
         self.pacer.set_speed(self.pacer.speed)  # sim time restarts: pace from here
         self.record.reset()

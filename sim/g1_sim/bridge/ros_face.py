@@ -6,6 +6,7 @@ be taken for the robot's, which the mode manager publishes from the robot's esti
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -80,6 +81,7 @@ class BridgeNode(Node):
         self.on_faults: Callable[[str], None] | None = None
         self.on_speed: Callable[[float], None] | None = None
         self.on_gantry: Callable[[bool], None] | None = None
+        self._recording_only = threading.local()  # set while the sim itself writes a value it already acted on
         self.add_on_set_parameters_callback(self._on_set_parameters)
         # relative: a sim launched in a namespace (one per robot) has its own; /clock stays global (ROS convention).
         # The truth is private to the sim node (~/odom), so it never passes for the robot's estimate.
@@ -103,6 +105,15 @@ class BridgeNode(Node):
             gantry=bool(g("gantry").value),
         )
 
+    def faults_cleared(self) -> None:
+        """The sim's reset cleared the faults: the parameter says so too (``ros2 param get`` must not show the
+        faults of before the reset, and a client setting them again must not be taken for no change)."""
+        self._recording_only.on = True
+        try:
+            self.set_parameters([Parameter("faults", value="")])
+        finally:
+            self._recording_only.on = False
+
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         # Validate everything first, so a refused batch changes nothing.
         for p in params:
@@ -113,6 +124,8 @@ class BridgeNode(Node):
                 return SetParametersResult(successful=False, reason="faults must be a JSON string")
             elif p.name in ("publish_ros", "gantry") and p.type_ != Parameter.Type.BOOL:
                 return SetParametersResult(successful=False, reason=f"{p.name} must be true or false")
+        if getattr(self._recording_only, "on", False):
+            return SetParametersResult(successful=True)
         for p in params:
             if p.name == "faults" and self.on_faults is not None:
                 try:
