@@ -9,8 +9,10 @@ from typing import Final
 import mujoco
 import numpy as np
 
+from g1_mode_manager.protocol import motors
 from g1_mode_manager.protocol.motors import EFFORT_LIMIT_NM, JOINT_NAMES, NUM_JOINTS
 from g1_sim.assets import assets_dir, scene_xml
+from g1_sim.physics.compiled_cache import compiled_model
 
 TIMESTEP_S: Final = 0.002
 #: The locomotion policy's default pose (motor order), rad: legs slightly bent, arms a little out.
@@ -98,14 +100,19 @@ def _geom_half_height(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> flo
     return float(model.geom_rbound[g])
 
 
-def build_model(root: str | Path | None = None) -> G1Model:
-    """Compile the scene once: torque motors with G1 effort limits, dt 2 ms, keyframe ``stand``."""
-    spec = mujoco.MjSpec.from_file(str(scene_xml(assets_dir(root))))
+def _compile(root: Path) -> mujoco.MjModel:
+    spec = mujoco.MjSpec.from_file(str(scene_xml(root)))
     spec.option.timestep = TIMESTEP_S
     _to_torque_motors(spec)
     spec.visual.global_.offwidth = max(spec.visual.global_.offwidth, 640)
     spec.visual.global_.offheight = max(spec.visual.global_.offheight, 480)
-    model = spec.compile()
+    return spec.compile()
+
+
+def build_model(root: str | Path | None = None) -> G1Model:
+    """Compile the scene once: torque motors with G1 effort limits, dt 2 ms, keyframe ``stand``."""
+    folder = assets_dir(root)
+    model = compiled_model(folder, (Path(__file__), Path(motors.__file__)), lambda: _compile(folder))
 
     for i, name in enumerate(JOINT_NAMES):
         jnt = model.joint(name)
