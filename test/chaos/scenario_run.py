@@ -30,8 +30,9 @@ from support.processes import ManagedProcess
 from support.sim_record import Event, SimRecord
 
 SETTLE_S = 12.0  # after the faults clear, supervision must get the robot damped within this
-#: After the e-stop the operators go on this long (nothing they send may reach the robot), s.
-AFTERMATH_S = 1.0
+#: After the e-stop the operators go on this long (nothing they send may reach the robot), s, by scenario length: a
+#: short scenario's (the suite's batch) half a second still holds tens of their messages at their 20-100 Hz.
+AFTERMATH_S = {"short": 0.5, "medium": 1.0, "long": 1.0}
 #: A node counts as exiting uncleanly if SIGINT takes longer than this, s.
 CLEAN_EXIT_S = 5.0
 DAMP = '{"data": 1}'
@@ -79,7 +80,7 @@ class ScenarioRun:
             if p.second_estop_after is not None:
                 time.sleep(p.second_estop_after)
                 self._estop(p.second_via, claims, first=False)
-            operators.join(AFTERMATH_S)
+            operators.join(AFTERMATH_S[p.length])
             stop.set()  # a call still in flight (a pre-empted transition's) ends on its own, in its thread
             ops.node_back.wait(30.0)
             self.timing["operators"] = time.monotonic() - t0
