@@ -49,6 +49,9 @@ lint: setup
 # pytest 9.2: xdist 3.8 renames the node id through an attribute pytest no longer reads.) Files go out in
 # test/conftest.py's order, slowest first, not by their number of tests.
 test: setup lint
+	@# compiled ahead: a shell with PYTHONDONTWRITEBYTECODE set has each of the suite's hundreds of nodes and sims compile
+	@# the product's sources again (compileall writes whatever that says)
+	@$(BIN)/python -m compileall -q g1_mode_manager sim/g1_sim harness
 	$(BIN)/python -m pytest -n 4 --dist loadfile --no-loadscope-reorder
 
 # `make run VIEW=1` opens MuJoCo's viewer on the sim (where a display exists).
