@@ -38,16 +38,39 @@ def sdk_channels(sdk_domain: int) -> int:
     return sdk_domain
 
 
-#: The slowest files, slowest first (as measured with --durations=0 in a 3-worker run; figures in
+#: The slowest files, slowest first (per-file sums of --durations=0 in a four-worker run; figures in
 #: docs/figures.md); then every other file of these folders, then the rest.
-_SLOWEST_FIRST = ("test/chaos/test_chaos_second_half.py", "test/chaos/test_chaos.py", "test/e2e/test_user_ctrl.py",
-                  "test/e2e/test_end_to_end.py",
-                  "test/e2e/test_console_browser.py", "test/e2e/test_streams.py", "test/sim/test_bridge.py",
-                  "test/e2e/test_estop_truth.py", "test/e2e/test_body.py", "test/packaging/test_colcon_build.py",
-                  "test/core/test_machine_properties.py", "test/e2e/test_loco_outcome.py", "test/e2e/test_odometry.py",
-                  "test/sdk/test_unitree_robot.py", "test/e2e/test_two_robots.py", "test/sim/test_robot_topics.py",
-                  "test/console/test_console_process.py", "test/e2e/test_user_ctrl_estop_steps.py", "test/e2e/test_getup.py",
-                  "test/e2e/test_drivers.py")
+_SLOWEST_FIRST = (
+    "test/chaos/test_chaos.py",
+    "test/chaos/test_chaos_second_half.py",
+    "test/e2e/test_user_ctrl.py",
+    "test/e2e/test_end_to_end.py",
+    "test/e2e/test_streams.py",
+    "test/e2e/test_estop_truth.py",
+    "test/packaging/test_colcon_build.py",
+    "test/e2e/test_body.py",
+    "test/sim/test_stock_clients.py",
+    "test/e2e/test_user_ctrl_estop_steps.py",
+    "test/sim/test_bridge.py",
+    "test/e2e/test_getup.py",
+    "test/core/test_machine_properties.py",
+    "test/e2e/test_console_browser.py",
+    "test/e2e/test_drivers.py",
+    "test/e2e/test_windows.py",
+    "test/e2e/test_loco_outcome.py",
+    "test/e2e/test_odometry.py",
+    "test/sim/test_robot_topics.py",
+    "test/sdk/test_unitree_robot.py",
+    "test/sim/test_body.py",
+    "test/sim/test_stance.py",
+    "test/e2e/test_head_led.py",
+    "test/sim/test_viewer.py",
+    "test/e2e/test_joint_states.py",
+    "test/sim/test_user_ctrl.py",
+    "test/sim/test_arm_tasks.py",
+    "test/e2e/test_two_robots.py",
+    "test/console/test_console_process.py",
+)
 _HEAVY_FOLDERS = ("test/e2e/", "test/sim/", "test/chaos/", "test/packaging/")
 
 
