@@ -16,7 +16,7 @@ from std_srvs.srv import Trigger
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
-from support.planner import start_planner
+from support.planner import launch_planner, planner_subscribed
 from support.processes import ManagedProcess, python_module
 from support.sim_record import is_damp, requests, velocity_of
 from support.timing import (
@@ -86,9 +86,10 @@ def _walking(stack) -> None:
 def _autonomy_driving(stack) -> tuple[ManagedProcess, float]:
     """Walking, a planner publishing 0.3 m/s and handed the robot, its Moves on the record; (the planner, the
     hand-over's time)."""
-    _walking(stack)
-    planner = start_planner(f"{stack.ns}/cmd_vel_nav", 0.3)
+    planner = launch_planner(f"{stack.ns}/cmd_vel_nav", 0.3)  # its start runs while the robot starts walking
     try:
+        _walking(stack)
+        planner_subscribed(planner)
         t_hand = time.monotonic()
         assert _trigger(stack, "hand_over_to_autonomy").success
         assert wait_until(lambda: len(_planner_moves(stack, t_hand)) >= 5, RECORD_WAIT_S)
@@ -116,12 +117,17 @@ def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the
         shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=PARAMS)
     modes = ModeLog(stack)
-    _walking(stack)
-    planner = start_planner(f"{stack.ns}/cmd_vel_nav", PLANNER_VX)
+    # the planner's start runs while the robot starts walking: not handed the robot, whatever it publishes then
+    # must move nothing either, and the window below begins once it surely publishes
+    t_launch = time.monotonic()
+    planner = launch_planner(f"{stack.ns}/cmd_vel_nav", PLANNER_VX)
     try:
+        _walking(stack)
+        planner_subscribed(planner)
         t0 = time.monotonic()
         time.sleep(QUIET_WINDOW_S)
         assert _moves(stack, t0) == [], "a Move reached the robot before the autonomy was handed it"
+        assert _planner_moves(stack, t_launch) == [], "a planner's Move reached the robot while it started walking"
         assert modes.wait(t0, lambda m: m.mode == Mode.HIGH_LEVEL)[1].driver == "teleop"
 
         t_hand = time.monotonic()

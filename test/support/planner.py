@@ -1,7 +1,8 @@
 """A scripted planner: a process publishing the autonomy's velocity input as Nav2's controller server would,
 at a fixed rate (20 Hz, Twist or TwistStamped), one constant command, until SIGINT.
 
-``start_planner(topic, vx, vy, wz)`` starts it and waits until the node under test subscribes; ``python
+``start_planner(topic, vx, vy, wz)`` starts it and waits until the node under test subscribes (or, to start it
+while something else goes on, ``launch_planner`` and later ``planner_subscribed``); ``python
 planner.py TOPIC VX VY WZ [RATE_HZ] [stamped]`` is the process.
 """
 
@@ -17,17 +18,29 @@ from harness.processes import ManagedProcess
 RATE_HZ = 20.0
 
 
-def start_planner(topic: str, vx: float, vy: float = 0.0, wz: float = 0.0, *, rate_hz: float = RATE_HZ,
-                  stamped: bool = False, timeout_s: float = 20.0) -> ManagedProcess:
+def launch_planner(topic: str, vx: float, vy: float = 0.0, wz: float = 0.0, *, rate_hz: float = RATE_HZ,
+                   stamped: bool = False) -> ManagedProcess:
+    """The planner's process, started and not waited for: its start (an interpreter and rclpy, a second or two)
+    can run while the test readies the robot; ``planner_subscribed`` then waits for it."""
     argv = [sys.executable, "-u", str(Path(__file__).resolve()), topic, str(vx), str(vy), str(wz), str(rate_hz),
             "stamped" if stamped else "plain"]
-    proc = ManagedProcess(argv, name="planner")
+    return ManagedProcess(argv, name="planner")
+
+
+def planner_subscribed(proc: ManagedProcess, timeout_s: float = 20.0) -> ManagedProcess:
+    """Wait until the node under test subscribes to the launched planner (it publishes from then on); stops the
+    planner if it does not."""
     try:
         proc.wait_for_line(lambda line: line.startswith("planner: subscribed"), timeout_s)
     except BaseException:
         proc.stop()
         raise
     return proc
+
+
+def start_planner(topic: str, vx: float, vy: float = 0.0, wz: float = 0.0, *, rate_hz: float = RATE_HZ,
+                  stamped: bool = False, timeout_s: float = 20.0) -> ManagedProcess:
+    return planner_subscribed(launch_planner(topic, vx, vy, wz, rate_hz=rate_hz, stamped=stamped), timeout_s)
 
 
 def _main(topic: str, vx: str, vy: str, wz: str, rate_hz: str = str(RATE_HZ), kind: str = "plain") -> None:
