@@ -8,11 +8,17 @@ from __future__ import annotations
 
 import time
 
+from g1_mode_manager.display.head_led import LedLook
+from g1_mode_manager.node.settings import Settings
 from support.mode_manager import wait_until
+from support.timing import RECORD_WAIT_S
 
 IDLE_BLUE = (0, 0, 255)
 EMERGENCY_RED = (255, 0, 0)
 OFF = (0, 0, 0)
+#: The pulses' periods, as the node under test (its default looks) runs them.
+HIGH_LEVEL_PERIOD_S = LedLook.parse(Settings().head_led_high_level).period_s
+LOW_LEVEL_PERIOD_S = LedLook.parse(Settings().head_led_low_level).period_s
 
 
 def _changes_since(stack, t0: float) -> list[tuple[int, int, int]]:
@@ -34,6 +40,18 @@ def _first_of_new_mode(stack, since: float, looks_new) -> float:
 
 def _collect(stack, t0: float, seconds: float) -> set[tuple[int, int, int]]:
     time.sleep(seconds)
+    return set(_changes_since(stack, t0))
+
+
+def _one_period(stack, t0: float, period_s: float) -> set[tuple[int, int, int]]:
+    """The colours the robot took since ``t0``, once they span a full period of the pattern that began then (a
+    change received a period or more after ``t0``). The robot's record is waited for, so a node or a delivery
+    slowed by a loaded machine still gives the whole period, and a quick one is not waited for beyond it."""
+    def period_shown() -> bool:
+        return any(c["t"] >= t0 + period_s for c in stack.sim.get()["voice"]["led_changes"])
+
+    assert wait_until(period_shown, period_s + RECORD_WAIT_S), \
+        f"the LED stopped changing on the robot: {_changes_since(stack, t0)}"
     return set(_changes_since(stack, t0))
 
 
@@ -60,14 +78,14 @@ def test_each_mode_shows_its_colour_and_pattern_on_the_robot(stack_factory) -> N
     since = time.monotonic()
     assert stack.set_mode("high_level").success
     t0 = _first_of_new_mode(stack, since, _green)
-    seen = _collect(stack, t0, 2.5)  # HIGH_LEVEL: green pulse, period 2 s
+    seen = _one_period(stack, t0, HIGH_LEVEL_PERIOD_S)  # HIGH_LEVEL: green pulse, period 2 s
     assert len(seen) >= 3, seen
     assert all(_green(c) for c in seen), seen
 
     since = time.monotonic()
     assert stack.set_mode("low_level").success
     t0 = _first_of_new_mode(stack, since, _amber)
-    seen = _collect(stack, t0, 1.5)  # LOW_LEVEL: amber pulse, period 1 s
+    seen = _one_period(stack, t0, LOW_LEVEL_PERIOD_S)  # LOW_LEVEL: amber pulse, period 1 s
     assert len(seen) >= 3, seen
     assert all(_amber(c) for c in seen), seen
 
