@@ -8,6 +8,7 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
+from typing import Any
 
 import pytest
 from g1_mode_manager_msgs.msg import Mode
@@ -33,6 +34,7 @@ AUTONOMY_MAX_VX = 0.35
 AUTONOMY_TIMEOUT_S = 0.5
 PARAMS = (f"autonomy_max_vx:={AUTONOMY_MAX_VX}", f"autonomy_timeout_s:={AUTONOMY_TIMEOUT_S}")
 PLANNER_VX = 0.6  # over the autonomy's limit: the record shows the clamp
+NAV_TOPIC = "/cmd_vel_nav"  # the autonomy's input of a shared stack's node (at the root namespace)
 TELEOP_WZ = -0.6
 
 
@@ -83,10 +85,23 @@ def _walking(stack) -> None:
     assert stack.loco("start").success
 
 
-def _autonomy_driving(stack) -> tuple[ManagedProcess, float]:
-    """Walking, a planner publishing 0.3 m/s and handed the robot, its Moves on the record; (the planner, the
-    hand-over's time)."""
-    planner = launch_planner(f"{stack.ns}/cmd_vel_nav", 0.3)  # its start runs while the robot starts walking
+def _stack_and_planner(shared_stack_factory, vx: float, node_params: tuple[str, ...]) -> tuple[Any, ManagedProcess]:
+    """A stack on the file's bridge and a planner publishing ``vx``, launched before the stack's node: a process
+    that is up when the node starts is discovered with the node's start, one started after it waited 2-3 s here
+    to be discovered. Not handed the robot, what it publishes meanwhile moves nothing."""
+    planner = launch_planner(NAV_TOPIC, vx)
+    try:
+        stack = shared_stack_factory(node_params=node_params)
+        assert f"{stack.ns}/cmd_vel_nav" == NAV_TOPIC, stack.ns
+    except BaseException:
+        planner.stop()
+        raise
+    return stack, planner
+
+
+def _autonomy_driving(stack, planner: ManagedProcess) -> float:
+    """Walking, the planner (publishing 0.3 m/s) handed the robot, its Moves on the record; the hand-over's time.
+    Stops the planner if it fails."""
     try:
         _walking(stack)
         planner_subscribed(planner)
@@ -96,7 +111,7 @@ def _autonomy_driving(stack) -> tuple[ManagedProcess, float]:
     except BaseException:
         planner.stop()
         raise
-    return planner, t_hand
+    return t_hand
 
 
 def _teleop(stack, wz: float, seconds: float) -> float:
@@ -115,19 +130,17 @@ def _teleop(stack, wz: float, seconds: float) -> float:
 
 def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the_human_takes_over(
         shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=PARAMS)
-    modes = ModeLog(stack)
-    # the planner's start runs while the robot starts walking: not handed the robot, whatever it publishes then
-    # must move nothing either, and the window below begins once it surely publishes
-    t_launch = time.monotonic()
-    planner = launch_planner(f"{stack.ns}/cmd_vel_nav", PLANNER_VX)
+    stack, planner = _stack_and_planner(shared_stack_factory, PLANNER_VX, PARAMS)
     try:
+        modes = ModeLog(stack)
+        # whatever the planner published while the node started and the robot started walking moved nothing
+        # either (the record's view begins with the sim's reset), and the window below begins once it publishes
         _walking(stack)
         planner_subscribed(planner)
         t0 = time.monotonic()
         time.sleep(QUIET_WINDOW_S)
         assert _moves(stack, t0) == [], "a Move reached the robot before the autonomy was handed it"
-        assert _planner_moves(stack, t_launch) == [], "a planner's Move reached the robot while it started walking"
+        assert _planner_moves(stack, float("-inf")) == [], "a planner's Move reached the robot while it started"
         assert modes.wait(t0, lambda m: m.mode == Mode.HIGH_LEVEL)[1].driver == "teleop"
 
         t_hand = time.monotonic()
@@ -185,9 +198,9 @@ def test_the_planner_drives_only_once_handed_the_robot_within_its_limits_and_the
 
 
 def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared_stack_factory) -> None:
-    stack = shared_stack_factory(node_params=PARAMS)
+    stack, planner = _stack_and_planner(shared_stack_factory, 0.3, PARAMS)
     modes = ModeLog(stack)
-    planner, t_hand = _autonomy_driving(stack)
+    t_hand = _autonomy_driving(stack, planner)
     try:
         # the head LED on the robot: the autonomy's cyan pulse (1.5 s) instead of HIGH_LEVEL's green
         assert wait_until(lambda: any(_cyan(c) for c in _led_since(stack, t_hand)), RECORD_WAIT_S), \
@@ -229,9 +242,9 @@ def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared
 def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_drives_is_a_fault(
         shared_stack_factory) -> None:
     # no heartbeat to speak of (one every 1000 s): what reaches ~/mode came because it changed
-    stack = shared_stack_factory(node_params=(*PARAMS, "mode_publish_rate_hz:=0.001"))
+    stack, planner = _stack_and_planner(shared_stack_factory, 0.3, (*PARAMS, "mode_publish_rate_hz:=0.001"))
     modes = ModeLog(stack)
-    planner, _ = _autonomy_driving(stack)
+    _autonomy_driving(stack, planner)
     try:
 
         t_battery = time.monotonic()
