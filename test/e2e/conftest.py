@@ -181,10 +181,10 @@ class _Stacks:
         bridge = start_sim_bridge(self._sdk, speed=1.0, faults=faults,
                                   extra_args=("--record", str(record), *bridge_args))
         self._started.append(bridge)
+        ros = RosClient()  # first: it is discovered while the node starts, not after
+        self._clients.append(ros)
         node = start_mode_manager(self._sdk, *node_params)
         self._started.append(node)
-        ros = RosClient()
-        self._clients.append(ros)
         ros.wait_node_answers()
         sim = shared_sim_status()  # SDK clients must live for the whole process (see harness.sim_bridge)
         sim.wait_ready(15.0)
@@ -245,10 +245,10 @@ def shared_stack_factory(_shared_bridge: _SharedBridge) -> Iterator:
     def factory(faults: dict | None = None, node_params: Sequence[str] = (), bridge_args: Sequence[str] = ()) -> Stack:
         unknown = set(bridge_args) - {"--gantry"}
         assert not unknown, f"a shared bridge cannot take {unknown} (start-time arguments): use stack_factory"
+        ros = RosClient()  # first: it is discovered while the node starts, not after
+        clients.append(ros)
         bridge, node, sim, record, baseline = _shared_bridge.start(node_params)
         nodes.append(node)
-        ros = RosClient()
-        clients.append(ros)
         ros.wait_node_answers()
         stack = Stack(bridge, node, ros, sim, record, baseline=baseline)
         stack.match_estop()
