@@ -21,6 +21,7 @@ from support.cyclone010 import STOCK_CLIENT, json_lines, side_python
 from support.processes import ManagedProcess
 from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
 from support.sim_record import SimRecord, states
+from support.timing import QUIET_WINDOW_S
 
 pytestmark = pytest.mark.sim
 
@@ -117,8 +118,11 @@ def test_unitree_loco_example_posture_options_behave_as_documented(sdk_channels:
     """The G1 loco example's Lie2StandUp (the robot on its back, after a Damp) gets the robot up; a StandUp of
     the lying robot answers 0 and leaves it down; StandUp2Squat squats a standing robot (fsm 706)."""
     status, record = robot
-    lines = _run_stock_client(sys.executable, sdk_channels, "--type-fix", "getup", "walk", "stand", "squat")
+    # the StandUp of the lying robot is watched for QUIET_WINDOW_S: something that must not happen
+    lines = _run_stock_client(sys.executable, sdk_channels, "--type-fix", f"--quiet-s={QUIET_WINDOW_S}",
+                              "getup", "walk", "stand", "squat")
     getup = _step(lines, "getup")
+    assert getup["lying"], getup  # the IMU showed the robot on the floor before the StandUp
     assert (getup["stand_up_code"], getup["after_stand_up"]) == (0, 1), getup  # answered 0, stayed damped
     assert (getup["static"], getup["fsm"]) == (0, 702), getup
     seen = states(record.events(since=_step(lines, "connected")["t"]))

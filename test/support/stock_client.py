@@ -7,18 +7,20 @@ Cyclone (11: multicast on lo; 0.10: unicast), and uses only the SDK's classes: `
 ``MotionSwitcherClient``, ``ChannelPublisher``/``ChannelSubscriber`` and ``CRC``. With ``--type-fix`` (needed
 on cyclonedds 11 to match a robot) it describes uint8/int8 as Cyclone 0.10 does before the first topic.
 
-Steps, in the order given: ``stand`` (Damp, StandUp until static), ``getup`` (Damp, the robot falls;
-StandUp, then Lie2StandUp until static), ``squat`` (StandUp2Squat until static), ``walk`` (Start, Move 0.5 m/s for
-2.5 s, StopMove), ``arm`` (rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``arm7``
-(rt/arm_sdk the way Unitree's C++ ``g1_arm7_sdk_dds_example.cpp`` writes it: no CRC, the weight 1 at once,
-the left shoulder pitch ramped at 0.5 rad/s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then
-Damp). Each prints one JSON line ``{"step", "t", ...codes}``; the caller judges what the robot did from the
-robot's side. Exit 0 once every step ran, 1 if the server never answered.
+Steps, in the order given: ``stand`` (Damp, StandUp until static), ``getup`` (Damp, until rt/lowstate shows the
+robot lying; StandUp, watched for ``--quiet-s=S`` (2 s unless given), then Lie2StandUp until static), ``squat``
+(StandUp2Squat until static), ``walk`` (Start, Move 0.5 m/s for 2.5 s, StopMove), ``arm``
+(rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``arm7`` (rt/arm_sdk the way Unitree's C++
+``g1_arm7_sdk_dds_example.cpp`` writes it: no CRC, the weight 1 at once, the left shoulder pitch ramped at
+0.5 rad/s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then Damp). Each prints one JSON line
+``{"step", "t", ...codes}``; the caller judges what the robot did from the robot's side. Exit 0 once every
+step ran, 1 if the server never answered.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from typing import Any
@@ -27,6 +29,9 @@ ARM_SDK_TOPIC, LOWSTATE_TOPIC = "rt/arm_sdk", "rt/lowstate"
 ARM_JOINTS = range(12, 29)  # waist + both arms, as in Unitree's arm_sdk example
 WEIGHT_INDEX = 29  # motor_cmd[29].q carries the arm_sdk weight
 LEFT_SHOULDER_PITCH = 15
+#: Lying: the IMU tilted past the fall check's angle (Unitree's terminations.hpp: 1 rad) and the body at rest on the
+#: floor (a falling body turns at several rad/s).
+LYING_TILT_RAD, AT_REST_RAD_S = 1.0, 0.5
 
 
 def emit(step: str, **fields: Any) -> None:
@@ -69,19 +74,34 @@ def fsm_id(loco: Any) -> int:
     return json.loads(data)["data"] if code == 0 and data else -1
 
 
-def getup(loco: Any) -> None:
+def wait_lying(lowstate: Any, budget_s: float = 15.0) -> bool:
+    """Read rt/lowstate until its IMU shows the robot lying on the floor (a fall takes about a second: a fixed
+    wait would have to be much longer to be sure of it); False if it never did within ``budget_s``."""
+    deadline = time.monotonic() + budget_s
+    while time.monotonic() < deadline:
+        state = lowstate.Read(1.0)
+        if state is not None:
+            _, x, y, _ = state.imu_state.quaternion
+            tilt = math.acos(max(-1.0, min(1.0, 1.0 - 2.0 * (x * x + y * y))))
+            if tilt > LYING_TILT_RAD and max(abs(g) for g in state.imu_state.gyroscope) < AT_REST_RAD_S:
+                return True
+        time.sleep(0.02)
+    return False
+
+
+def getup(loco: Any, lowstate: Any, quiet_s: float) -> None:
     """The G1 loco example's Lie2StandUp option, as its comment asks (the robot on its back): Damp, wait
-    until the robot lies, then Lie2StandUp; a StandUp (SetFsmId 4: this SDK has no StandUp) tried first shows
-    what the lying robot does with it."""
+    until the robot lies, then Lie2StandUp; a StandUp (SetFsmId 4: this SDK has no StandUp) tried first, and
+    the robot watched for ``quiet_s``, shows what the lying robot does with it."""
     loco.Damp()
-    time.sleep(2.5)
+    lying = wait_lying(lowstate)
     stand_up_code = loco.SetFsmId(4)
-    time.sleep(2.0)
+    time.sleep(quiet_s)
     after_stand_up = fsm_id(loco)
     loco.Lie2StandUp()
     time.sleep(0.3)
-    emit("getup", stand_up_code=stand_up_code, after_stand_up=after_stand_up, static=wait_static(loco),
-         fsm=fsm_id(loco))
+    emit("getup", lying=lying, stand_up_code=stand_up_code, after_stand_up=after_stand_up,
+         static=wait_static(loco), fsm=fsm_id(loco))
 
 
 def squat(loco: Any) -> None:
@@ -176,7 +196,8 @@ def arm7(publisher: Any, lowstate: Any, target: float = -0.9) -> None:
 
 def main(argv: list[str]) -> int:
     type_fix = "--type-fix" in argv
-    args = [a for a in argv if a != "--type-fix"]
+    quiet_s = next((float(a.split("=", 1)[1]) for a in argv if a.startswith("--quiet-s=")), 2.0)
+    args = [a for a in argv if not a.startswith("--")]
     domain, steps = int(args[0]), args[1:]
     if type_fix:
         from cyclonedds.idl._typesupport.DDS import XTypes
@@ -209,7 +230,7 @@ def main(argv: list[str]) -> int:
         elif step == "walk":
             walk(loco)
         elif step == "getup":
-            getup(loco)
+            getup(loco, lowstate, quiet_s)
         elif step == "squat":
             squat(loco)
         elif step == "arm":
