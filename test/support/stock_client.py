@@ -9,7 +9,7 @@ on cyclonedds 11 to match a robot) it describes uint8/int8 as Cyclone 0.10 does 
 
 Steps, in the order given: ``stand`` (Damp, StandUp until static), ``getup`` (Damp, until rt/lowstate shows the
 robot lying; StandUp, watched for ``--quiet-s=S`` (2 s unless given), then Lie2StandUp until static), ``squat``
-(StandUp2Squat until static), ``walk`` (Start, Move 0.5 m/s for 2.5 s, StopMove), ``arm``
+(StandUp2Squat until static), ``start`` (Start only), ``walk`` (Start, Move 0.5 m/s for 2.5 s, StopMove), ``arm``
 (rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``arm7`` (rt/arm_sdk the way Unitree's C++
 ``g1_arm7_sdk_dds_example.cpp`` writes it: no CRC, the weight 1 at once, the left shoulder pitch ramped at
 0.5 rad/s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then Damp). Each prints one JSON line
@@ -109,6 +109,11 @@ def squat(loco: Any) -> None:
     loco.StandUp2Squat()
     time.sleep(0.3)
     emit("squat", static=wait_static(loco), fsm=fsm_id(loco))
+
+
+def start(loco: Any) -> None:
+    loco.Start()
+    emit("start")
 
 
 def walk(loco: Any) -> None:
@@ -231,6 +236,8 @@ def main(argv: list[str]) -> int:
             walk(loco)
         elif step == "getup":
             getup(loco, lowstate, quiet_s)
+        elif step == "start":
+            start(loco)
         elif step == "squat":
             squat(loco)
         elif step == "arm":
