@@ -66,6 +66,14 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> No
     assert r.success and "task 0 at" in r.message, r.message
     played = _answered_after(stack, api_ids.LOCO_SET_ARM_TASK, sent)
     assert played is not None and played <= answered
+
+    # g1ctl prints the same answer, with the time to the outcome; it runs while the wave plays out (seconds of
+    # sim time), as a balance mode changes no fsm and so leaves the wave alone (gait 0, as the robot booted)
+    cli = subprocess.run(python_module("g1_mode_manager.cli.main", "loco", "continuous_gait", "0"),
+                         capture_output=True, text=True, timeout=60)
+    assert cli.returncode == 0, cli.stdout + cli.stderr
+    assert cli.stdout.startswith("success=True code=0 outcome after "), cli.stdout
+    assert "continuous_gait (value 0): done, the robot shows balance mode 0 after" in cli.stdout, cli.stdout
     assert wait_until(lambda: stack.sim.get()["sport"]["task"][1] == 0.0, 15.0)  # the wave played out
 
     # posture motions: the answer comes only once the motion finished (seconds after SetFsmId's 0)
@@ -97,14 +105,6 @@ def test_each_command_is_answered_after_the_robot_shows_its_outcome(stack) -> No
         read_back = [e["t"] for e in requests(stack.record.events(sent), getter, kind="done")]
         assert set_done and read_back and max(read_back) > min(set_done), f"{command}: never read back after it was set"
         assert max(read_back) <= answered
-
-    # g1ctl prints the same answer, with the time to the outcome (gait 0: a continuous gait would leave the
-    # robot stepping, dynamic, where the next tests could not stand it still again)
-    cli = subprocess.run(python_module("g1_mode_manager.cli.main", "loco", "continuous_gait", "0"),
-                         capture_output=True, text=True, timeout=60)
-    assert cli.returncode == 0, cli.stdout + cli.stderr
-    assert cli.stdout.startswith("success=True code=0 outcome after "), cli.stdout
-    assert "continuous_gait (value 0): done, the robot shows balance mode 0 after" in cli.stdout, cli.stdout
 
 
 
