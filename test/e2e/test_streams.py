@@ -325,7 +325,10 @@ def test_g1ctl_drive_stops_publishing_without_keys_and_sub_dead_band_is_not_sent
         assert tool.poll() is None  # the tool still runs: it simply went silent
         print(f"StopMove received {stop_at - t_key:.2f} s after the last key")
     finally:
-        os.write(master, b"\x03")  # its quit key (the pty is not its controlling terminal)
+        # Ctrl-C as a terminal delivers it, a SIGINT: this pty is not the tool's controlling terminal, so a \x03
+        # written to it is taken by the line discipline (ISIG stays on in cbreak mode) and never reaches the
+        # tool, which then ran on until the wait below killed it
+        tool.send_signal(signal.SIGINT)
         try:
             tool.wait(10.0)
         except subprocess.TimeoutExpired:
