@@ -86,3 +86,13 @@ def states(events: Iterable[Event]) -> list[Event]:
 def damped(state: Event) -> bool:
     """The robot damping with a high-level service selected."""
     return state["fsm"] == 1 and bool(state["svc"])
+
+
+def confirming_damp(events: Iterable[Event]) -> Event | None:
+    """The Damp of a stop's damping sequence among ``events`` (those since the stop began): the second Damp, the
+    first being the stop's DampNoReply. That one goes out before the forward gate closes (an e-stop) or while a
+    write the gate let through before the stop may still be on its way (a FAULT, or an e-stop whose registration
+    did not wait for a stalled relay); the sequence sends its Damp only once every such write is done, so from
+    this Damp on nothing the stop let through can still reach the robot. The first Damp if there is only one."""
+    damps = [e for e in requests(events) if is_damp(e)]
+    return damps[1] if len(damps) > 1 else (damps[0] if damps else None)

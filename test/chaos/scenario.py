@@ -18,7 +18,7 @@ from typing import Any
 from chaos.drivers import DriveLog, judge_drivers, judge_ramps
 from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.protocol import api_ids
-from support.sim_record import Event, damped, fsm_of, is_damp, requests, states, velocity_of
+from support.sim_record import Event, confirming_damp, damped, fsm_of, requests, states, velocity_of
 
 #: After a FAULT was claimed, the robot must be seen damped within this (the e-stop's budget, its calls'
 #: injected delays), s.
@@ -93,11 +93,11 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any], path: 
         bad.append(f"robot not damped at the end (faults cleared): {sport}")
 
     after = [e for e in events if e["t"] >= claims.t_estop]
-    damps = [e for e in requests(after) if is_damp(e)]
-    if not damps:
+    confirming = confirming_damp(after)
+    if confirming is None:
         bad.append("no Damp reached the robot after the e-stop")
     else:
-        cut = damps[1]["t"] if len(damps) > 1 else damps[0]["t"]
+        cut = confirming["t"]
         sent_before_damping = _sent_before_the_nodes_damping(events, claims.t_estop)
         for e in after:
             if e["t"] <= cut or id(e) in sent_before_damping:

@@ -19,7 +19,7 @@ from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.planner import launch_planner, planner_subscribed
 from support.processes import ManagedProcess, python_module
-from support.sim_record import is_damp, requests, velocity_of
+from support.sim_record import confirming_damp, requests, velocity_of
 from support.timing import (
     ONE_RPC_S,
     QUIET_WINDOW_S,
@@ -229,9 +229,10 @@ def test_stale_odometry_suspends_the_autonomy_and_an_estop_ends_its_drive(shared
         t_estop = time.monotonic()
         r = stack.estop()
         assert r.success, r.message
-        events = stack.record.events(t_estop)
-        t_damp = next(e["t"] for e in requests(events) if is_damp(e))
-        # (a StopMove may follow: the relay stops what may still run; it moves nothing)
+        # a planner Move written just before the e-stop closed the gate may land after its DampNoReply (and be
+        # refused by the damped robot); none after the sequence's Damp. (A StopMove may follow: the relay stops
+        # what may still run; it moves nothing.)
+        t_damp = confirming_damp(stack.record.events(t_estop))["t"]
         assert [(t, v) for t, v in _moves(stack, t_estop) if t > t_damp and any(v)] == []
         assert stack.sim.get()["sport"]["fsm_id"] == 1  # damped, on the robot
         modes.wait(t_estop, lambda m: m.mode == Mode.EMERGENCY and m.driver == "nobody")
@@ -257,7 +258,7 @@ def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_dr
         stack.set_faults({"push": {"force": 600, "direction": [1, 0], "duration": 0.3}})
         _, fault = modes.wait(t_push, lambda m: m.mode == Mode.FAULT and m.damp_confirmed)
         assert fault.driver == "nobody", fault
-        t_damp = next(e["t"] for e in requests(stack.record.events(t_push)) if is_damp(e))
+        t_damp = confirming_damp(stack.record.events(t_push))["t"]  # as for the e-stop below
         assert [(t, v) for t, v in _moves(stack, t_push) if t > t_damp and any(v)] == []
         assert stack.sim.get()["sport"]["fsm_id"] == 1
 

@@ -16,7 +16,7 @@ import pytest
 
 from g1_mode_manager.protocol import api_ids
 from support.mode_manager import wait_until
-from support.sim_record import damped, is_damp, requests, states, velocity_of
+from support.sim_record import confirming_damp, damped, is_damp, requests, states, velocity_of
 from support.timing import QUIET_WINDOW_S
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
@@ -182,11 +182,11 @@ def test_no_move_reaches_the_robot_after_the_estop(shared_stack_factory) -> None
         stop_driving.set()
         driving.result(10.0)
     events = stack.record.events(since=t_request)
-    damps = [e for e in requests(events) if is_damp(e)]
-    assert damps
-    # after the first Damp that the e-stop sent once it registered (the second of the e-stop), no Move
-    # (a StopMove, SetVelocity 0 0 0, may still come: it moves nothing)
-    cut = damps[1]["t"] if len(damps) > 1 else damps[0]["t"]
+    confirming = confirming_damp(events)
+    assert confirming is not None
+    # after the Damp that the e-stop sent once it registered, no Move (a StopMove, SetVelocity 0 0 0, may still
+    # come: it moves nothing)
+    cut = confirming["t"]
     late = [(e["t"] - cut, e["p"]) for e in requests(events, api_ids.LOCO_SET_VELOCITY)
             if e["t"] > cut and any(velocity_of(e))]
     assert late == [], late

@@ -1,5 +1,17 @@
 """The sim's own record (``harness.sim_record``, shared with the benchmarks), under the name the tests import."""
 
-from harness.sim_record import Event, SimRecord, damped, fsm_of, is_damp, of_kind, requests, states, velocity_of
+from harness.sim_record import (
+    Event,
+    SimRecord,
+    confirming_damp,
+    damped,
+    fsm_of,
+    is_damp,
+    of_kind,
+    requests,
+    states,
+    velocity_of,
+)
 
-__all__ = ["Event", "SimRecord", "damped", "fsm_of", "is_damp", "of_kind", "requests", "states", "velocity_of"]
+__all__ = ["Event", "SimRecord", "confirming_damp", "damped", "fsm_of", "is_damp", "of_kind", "requests", "states",
+           "velocity_of"]
