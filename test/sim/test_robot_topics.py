@@ -58,7 +58,7 @@ from g1_mode_manager.protocol.cyclone_internals import take_serialized
 from g1_mode_manager.protocol.idl import IMUState_, OdomModeState_
 from g1_mode_manager.protocol.unitree_sdk_internals import channel_datareader, subscriber_channel
 from g1_mode_manager.sdk.odom_reader import decode_odom
-counts, stamp, keep = {}, [0.0], []
+counts, stamps, keep = {}, {topics.ODOMMODESTATE: 0.0, topics.LF_ODOMMODESTATE: 0.0}, []
 # five seconds at 1 kHz: a counter starved of the CPU for a while still counts every sample
 qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(5000))
 for topic, idl in ((topics.SECONDARY_IMU, IMUState_), (topics.ODOMMODESTATE, OdomModeState_),
@@ -70,8 +70,8 @@ for topic, idl in ((topics.SECONDARY_IMU, IMUState_), (topics.ODOMMODESTATE, Odo
         while True:
             taken = take_serialized(reader, 64)
             counts[topic] += len(taken)
-            if topic == topics.ODOMMODESTATE and taken:
-                stamp[0] = decode_odom(taken[-1][0]).stamp_s
+            if topic in stamps and taken:
+                stamps[topic] = decode_odom(taken[-1][0]).stamp_s
             if len(taken) < 64:
                 return
     listener = Listener(on_data_available=on_data)
@@ -79,7 +79,8 @@ for topic, idl in ((topics.SECONDARY_IMU, IMUState_), (topics.ODOMMODESTATE, Odo
 try:
     while True:
         time.sleep(0.1)
-        print(json.dumps({"t": time.monotonic(), "n": counts, "stamp": stamp[0]}), flush=True)
+        print(json.dumps({"t": time.monotonic(), "n": counts, "stamp": stamps[topics.ODOMMODESTATE], "stamps": stamps}),
+              flush=True)
 except KeyboardInterrupt:
     pass
 """
@@ -199,15 +200,17 @@ def test_torso_imu_and_odometry_at_their_rates_odometry_only_while_a_service_is_
     assert active[topics.LF_ODOMMODESTATE] == pytest.approx(20.0, rel=0.1)
 
     assert sim.call(sim.io.switcher.ReleaseMode, api.MS_RELEASE_MODE) == (0, None)  # debug mode: no estimate
-    t_released = sim.status.get()["sim_time"]
+    t_released = sim.status.get()["sim_time"]  # every sample published before the release is stamped up to here
     sim.status.wait_sim_time(t_released + 0.2)
     before = sim.counts(time.monotonic())
     s0 = sim.status.get()
     sim.run_for(2.0)
     after = sim.counts(time.monotonic())
     s1 = sim.status.get()
-    assert after["n"][topics.ODOMMODESTATE] == before["n"][topics.ODOMMODESTATE]
-    assert after["n"][topics.LF_ODOMMODESTATE] == before["n"][topics.LF_ODOMMODESTATE]
+    # judged by the samples' stamps, not by the reader's count standing still: on a loaded machine the reader is
+    # still taking samples queued before the release, a few hundred milliseconds of them
+    assert after["stamps"][topics.ODOMMODESTATE] <= t_released, (t_released, after["stamps"])
+    assert after["stamps"][topics.LF_ODOMMODESTATE] <= t_released, (t_released, after["stamps"])
     # (sim times from the status, taken up to 0.1 s of wall time apart from the counts: a rough rate)
     imu_hz = (after["n"][topics.SECONDARY_IMU] - before["n"][topics.SECONDARY_IMU]) / (s1["sim_time"] - s0["sim_time"])
     print(f"released: rt/secondary_imu about {imu_hz:.0f} Hz of sim time, odometry 0")
