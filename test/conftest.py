@@ -38,8 +38,8 @@ def sdk_channels(sdk_domain: int) -> int:
     return sdk_domain
 
 
-#: The slowest files, slowest first (per-file sums of --durations=0 in a four-worker run, which five keep balanced;
-#: figures in docs/figures.md); then every other file of these folders, then the rest.
+#: The slowest files, slowest first (per-file sums of --durations=0 in a four-worker run; figures in
+#: docs/figures.md); then every other file of these folders, then the rest.
 _SLOWEST_FIRST = (
     "test/chaos/test_chaos.py",
     "test/chaos/test_chaos_second_half.py",
