@@ -44,9 +44,9 @@ lint: setup
 	$(BIN)/ruff check .
 
 # Four workers (pytest-xdist), each with DDS domains of its own: the tests mostly wait on real-time sims, and an
-# idle sim computes nothing nobody reads, so two cores carry four at about 88 %. Five ran them at 95 % and a little
-# faster, but each of three fresh clones then failed a different test on what the load did to it (figures in
-# docs/figures.md). A test file stays in one worker, so its module fixtures (one sim for a file's tests) are made once.
+# idle sim computes nothing nobody reads, so two cores carry four at about 88 %. Not five: at about 95 % the sims'
+# and readers' lag grows past what the tests allow for (figures in docs/figures.md). A test file stays in one
+# worker, so its module fixtures (one sim for a file's tests) are made once.
 # (--dist loadgroup does not group with pytest 9.2: xdist 3.8 renames the node id through an attribute pytest no
 # longer reads.) Files go out in test/conftest.py's order, slowest first, not by their number of tests.
 test: setup lint

@@ -258,7 +258,7 @@ def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_dr
         stack.set_faults({"push": {"force": 600, "direction": [1, 0], "duration": 0.3}})
         _, fault = modes.wait(t_push, lambda m: m.mode == Mode.FAULT and m.damp_confirmed)
         assert fault.driver == "nobody", fault
-        t_damp = confirming_damp(stack.record.events(t_push))["t"]  # as for the e-stop below
+        t_damp = confirming_damp(stack.record.events(t_push))["t"]  # as for the e-stop of the stale-odometry test
         assert [(t, v) for t, v in _moves(stack, t_push) if t > t_damp and any(v)] == []
         assert stack.sim.get()["sport"]["fsm_id"] == 1
 

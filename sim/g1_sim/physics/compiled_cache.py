@@ -9,6 +9,7 @@ read-only install) or read (a torn file) is passed over and the scene compiled.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import tempfile
@@ -40,6 +41,7 @@ def compiled_model(assets_root: Path, sources: Iterable[Path], compile_scene: Ca
         except Exception:  # a torn or foreign file: compile instead, and replace it
             pass
     model = compile_scene()
+    tmp = None
     try:
         path.parent.mkdir(exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".part")
@@ -48,5 +50,7 @@ def compiled_model(assets_root: Path, sources: Iterable[Path], compile_scene: Ca
         os.chmod(tmp, 0o644)  # mkstemp's 0600 would keep it from sims of other users of the same install
         os.replace(tmp, path)  # whole or not at all, whichever of several sims starting together writes it
     except OSError:
-        pass
+        if tmp is not None:  # a full disk must not keep a part of a large file
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
     return model
