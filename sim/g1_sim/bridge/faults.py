@@ -339,10 +339,15 @@ class Faults:
 
     ``on_change(old, new)`` is called after every ``set`` (the bridge hands the body's injections to the
     robot and records them).
+
+    The sim thread decides and publishes a step's samples inside ``held()``, and ``set`` swaps the configuration
+    only between two such steps: once ``set`` returns, no sample goes out that was decided under the old one (a
+    frozen stream's count stops at the answer to the parameter call, not one sample later).
     """
 
     def __init__(self, config: FaultConfig | None = None) -> None:
         self._lock = threading.Lock()
+        self._step = threading.Lock()
         self._config = config or FaultConfig()
         self._damp_fails_left = self._config.damp_fails
         self._rng = random.Random(self._config.seed)
@@ -356,13 +361,17 @@ class Faults:
         """Replace the configuration. The damp failure budget restarts from config.damp_fails only when that
         number changes: a body injection or a re-sent configuration does not make the next Damps fail again (a
         robot whose Damps failed twice does not fail twice more because a motor heated up meanwhile)."""
-        with self._lock:
+        with self._step, self._lock:
             old, self._config = self._config, config
             if config.damp_fails != old.damp_fails:
                 self._damp_fails_left = config.damp_fails
             self._rng = random.Random(config.seed)
         if self.on_change is not None:
             self.on_change(old, config)
+
+    def held(self) -> threading.Lock:
+        """Held by the sim thread while it publishes one step's samples (``set`` waits for the step's end)."""
+        return self._step
 
     def set_json(self, text: str) -> FaultConfig:
         """Parse and apply; on error raise FaultConfigError and keep the previous configuration."""

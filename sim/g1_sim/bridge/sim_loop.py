@@ -142,47 +142,48 @@ class SimLoop:
             robot.step(1)
             k += 1
             t = robot.time
-            paused = faults.state_paused
-            body_due = k % self._body_every == 0
-            if body_due:
-                self.body = body_report(robot.body(), faults.config)
-            s = None
-            if on_body is not None and body_due:
-                # on the record before any frame that shows this step leaves the sim: a node that reacts to the
-                # frame must find the condition already recorded, however long this thread is preempted here
-                s = robot.lowstate()
-                on_body(t, s, self.body)
-            if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
-                lf = k % self._lf_every == 0
-                if pub.wants_lowstate(also_lf=lf):
-                    if s is None:
-                        s = robot.lowstate()
-                    pub.publish_lowstate(s, self.body, also_lf=lf)
-                else:
-                    pub.count_unread("lowstate", also_lf=lf)
-            if k % self._low_every == 0 and not paused:
-                if pub.wants_secondary_imu():
-                    pub.publish_secondary_imu(robot.torso_imu())
-                else:
-                    pub.count_unread("secondary_imu")
-            if k % self._odom_every == 0 and not (paused or faults.odom_frozen) and robot.sport_active():
-                lf = k % self._lf_odom_every == 0
-                recorded = lf and self._on_odom is not None
-                # the estimate integrates between samples whatever their rate (firmware.odometry): a sample
-                # nobody reads or records need not be computed
-                if recorded or pub.wants_odom(also_lf=lf):
-                    odom = robot.odometry()
-                    if recorded:  # on the record before the sample leaves the sim, as the body's
-                        self._on_odom(t, odom)
-                    pub.publish_odom(t, odom, also_lf=lf)
-                else:
-                    pub.count_unread("odommodestate", also_lf=lf)
-            if k % self._sport_every == 0 and not paused:
-                pub.publish_sportmodestate(*self._sport_state(), *robot.arm_task())
-            if k % self._bms_every == 0 and not paused:
-                pub.publish_bmsstate(self.body)
-            if node is not None and k % self._ros_every == 0 and node.publish_ros:
-                self._publish_ros(t, robot.lowstate() if s is None else s)
+            with faults.held():  # a fault set now applies from the next step on, never within this one
+                paused = faults.state_paused
+                body_due = k % self._body_every == 0
+                if body_due:
+                    self.body = body_report(robot.body(), faults.config)
+                s = None
+                if on_body is not None and body_due:
+                    # on the record before any frame that shows this step leaves the sim: a node that reacts to the
+                    # frame must find the condition already recorded, however long this thread is preempted here
+                    s = robot.lowstate()
+                    on_body(t, s, self.body)
+                if k % self._low_every == 0 and not (paused or faults.lowstate_frozen):
+                    lf = k % self._lf_every == 0
+                    if pub.wants_lowstate(also_lf=lf):
+                        if s is None:
+                            s = robot.lowstate()
+                        pub.publish_lowstate(s, self.body, also_lf=lf)
+                    else:
+                        pub.count_unread("lowstate", also_lf=lf)
+                if k % self._low_every == 0 and not paused:
+                    if pub.wants_secondary_imu():
+                        pub.publish_secondary_imu(robot.torso_imu())
+                    else:
+                        pub.count_unread("secondary_imu")
+                if k % self._odom_every == 0 and not (paused or faults.odom_frozen) and robot.sport_active():
+                    lf = k % self._lf_odom_every == 0
+                    recorded = lf and self._on_odom is not None
+                    # the estimate integrates between samples whatever their rate (firmware.odometry): a sample
+                    # nobody reads or records need not be computed
+                    if recorded or pub.wants_odom(also_lf=lf):
+                        odom = robot.odometry()
+                        if recorded:  # on the record before the sample leaves the sim, as the body's
+                            self._on_odom(t, odom)
+                        pub.publish_odom(t, odom, also_lf=lf)
+                    else:
+                        pub.count_unread("odommodestate", also_lf=lf)
+                if k % self._sport_every == 0 and not paused:
+                    pub.publish_sportmodestate(*self._sport_state(), *robot.arm_task())
+                if k % self._bms_every == 0 and not paused:
+                    pub.publish_bmsstate(self.body)
+                if node is not None and k % self._ros_every == 0 and node.publish_ros:
+                    self._publish_ros(t, robot.lowstate() if s is None else s)
             self.rate.update(t)
             self._pacer.pace(t)
 
