@@ -35,9 +35,11 @@ from g1_sim.firmware.user_ctrl import (
     switch_in_verdict,
 )
 from harness.rate import run_at_rate
+from support.mode_manager import wait_until
 from support.sdk_calls import call, initialised
 from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
 from support.sim_record import SimRecord, of_kind, requests, states
+from support.timing import RECORD_WAIT_S
 
 #: Gains of a user's stiff hold of the standing pose (N m/rad, N m s/rad): enough for the G1's legs.
 HOLD_KP, HOLD_KD = 300.0, 8.0
@@ -329,6 +331,11 @@ def _fsm(c: Clients) -> int:
     return int(data["data"])
 
 
+def _refused_user_frames(c: Clients) -> int:
+    """rt/user_lowcmd frames the robot ignored because it was not under user control."""
+    return int(c.status.get()["frames"].get("user_lowcmd", {}).get("not_user_ctrl", 0))
+
+
 def _ready(c: Clients) -> None:
     c.status.wait_ready()
     deadline = time.monotonic() + 15.0
@@ -422,6 +429,10 @@ def test_bridge_standing_switch_held_by_frames_and_caught_by_walkrun(clients: Cl
         assert st["user_ctrl"] and st["user_ctrl_option"] == "either" and st["sport"]["fsm_id"] == USER_CTRL_FSM_ID
         assert _call(c, api.LOCO_SWITCH_TO_INTERNAL_CTRL, {"data": int(InternalCtrl.WALKRUN)})[0] == api.OK
         assert _fsm(c) == WALKRUN_FSM
+        # the stream goes on until the robot has judged frames after the switch (a starved stream thread may have
+        # sent none yet)
+        refused = _refused_user_frames(c)
+        assert wait_until(lambda: _refused_user_frames(c) >= refused + 10, RECORD_WAIT_S)
     st = c.status.wait_sim_time(c.status.get()["sim_time"] + WATCH_S)  # no frames: the built-in controller holds it
     print(f"frames sent {stream.sent}; status frames {st['frames']}; firmware {st['firmware']}")
     assert not st["user_ctrl"] and st["sport"]["fsm_id"] == WALKRUN_FSM
