@@ -75,6 +75,23 @@ def velocity_of(event: Event) -> list[float] | None:
     return list(json.loads(event["p"])["velocity"])
 
 
+#: A request's identity id read as a send stamp must lie within this many seconds before its receipt.
+_PLAUSIBLE_TRANSIT_S = 60.0
+
+
+def sent_at(event: Event) -> float:
+    """When the client built a request the robot received (a ``req`` event), on the record's clock.
+
+    Unitree's Python SDK writes ``time.monotonic_ns()`` into a request's identity id as it builds it, so a request
+    that reached the robot late because the robot's receiving side was starved still shows when the node sent
+    it. Without a plausible stamp (another client's ids), its receive time: late, never early."""
+    received = float(event["t"])
+    if not isinstance(stamp := event.get("id"), int) or stamp <= 0:
+        return received
+    sent = stamp / 1e9
+    return sent if 0.0 <= received - sent <= _PLAUSIBLE_TRANSIT_S else received
+
+
 def of_kind(events: Iterable[Event], kind: str) -> list[Event]:
     return [e for e in events if e["k"] == kind]
 

@@ -35,7 +35,7 @@ from support.mode_manager import wait_until
 from support.processes import ManagedProcess, python_module
 from support.sdk_calls import call, initialised
 from support.sim_bridge import SimStatus, shared_sim_status, sim_bridge_factory  # noqa: F401  (fixture)
-from support.sim_record import SimRecord
+from support.sim_record import SimRecord, requests, sent_at
 from support.timing import RECORD_WAIT_S, margin
 
 pytestmark = pytest.mark.sim
@@ -286,13 +286,15 @@ def test_walk_stop_arm_sdk_damp_release_and_lowcmd(clients: Clients, sim_bridge_
     assert proc.stop() == 0 and "Traceback" not in proc.output(), proc.output()  # SIGINT: clean exit
 
 
-def test_a_starved_sim_still_records_every_arm_sdk_frame_in_order(clients: Clients, sim_bridge_factory,  # noqa: F811
-                                                                tmp_path) -> None:
+def test_a_starved_sim_still_records_every_arm_sdk_frame_in_order_and_when_a_request_was_sent(
+        clients: Clients, sim_bridge_factory, tmp_path) -> None:  # noqa: F811
     """The robot receives every 50 Hz arm_sdk frame. A sim process frozen for 0.3 s (a loaded machine) must not
-    drop the frames queued meanwhile, or its record shows weight steps nobody sent."""
+    drop the frames queued meanwhile, or its record shows weight steps nobody sent. A request sent meanwhile is
+    received after the thaw, and its record still shows when the client sent it (``sent_at``)."""
     record = tmp_path / "record.jsonl"
     proc = sim_bridge_factory(extra_args=("--record", str(record)))
     clients.status.wait_ready()
+    _wait_server(clients.loco, api.LOCO_API_VERSION)
 
     def arm_frames(since: float) -> list[float]:
         return [round(e["w"], 5) for e in SimRecord(record).events(since) if e["k"] == "frame" and e["topic"] == "arm_sdk"]
@@ -309,7 +311,12 @@ def test_a_starved_sim_still_records_every_arm_sdk_frame_in_order(clients: Clien
     for k, weight in enumerate(sent):
         if k == 20:
             os.kill(proc.proc.pid, signal.SIGSTOP)  # 15 frames go out while it is frozen
+        if k == 25:
+            asked = time.monotonic()
+            clients.loco._CallNoReply(api.LOCO_GET_FSM_ID, "{}")
+            sent_by = time.monotonic()
         if k == 35:
+            thawed = time.monotonic()
             os.kill(proc.proc.pid, signal.SIGCONT)
         clients.arm.Write(_lowcmd(np.zeros(29), kp=0.0, kd=0.0, weight=weight, indices=ARM_SDK_JOINTS))
         time.sleep(0.02)
@@ -317,6 +324,9 @@ def test_a_starved_sim_still_records_every_arm_sdk_frame_in_order(clients: Clien
 
     wait_until(lambda: len(arm_frames(t0)) >= len(sent), 5.0)
     assert arm_frames(t0) == [round(w, 5) for w in sent]
+    assert wait_until(lambda: requests(SimRecord(record).events(t0), api.LOCO_GET_FSM_ID), RECORD_WAIT_S)
+    [req] = requests(SimRecord(record).events(t0), api.LOCO_GET_FSM_ID)
+    assert req["t"] >= thawed and asked <= sent_at(req) <= sent_by, (asked, sent_by, thawed, req)
 
 
 def test_faults_delay_error_damp_fails(clients: Clients, sim_bridge_factory) -> None:  # noqa: F811

@@ -9,9 +9,10 @@ from harness.sim_record import (
     is_damp,
     of_kind,
     requests,
+    sent_at,
     states,
     velocity_of,
 )
 
-__all__ = ["Event", "SimRecord", "confirming_damp", "damped", "fsm_of", "is_damp", "of_kind", "requests", "states",
-           "velocity_of"]
+__all__ = ["Event", "SimRecord", "confirming_damp", "damped", "fsm_of", "is_damp", "of_kind", "requests", "sent_at",
+           "states", "velocity_of"]

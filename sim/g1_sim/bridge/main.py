@@ -272,8 +272,9 @@ class Bridge:
         self.record.event("gantry", on=on)
 
     # --- the robot's record ---------------------------------------------------------------------------
-    def _received(self, service: str, api_id: int, parameter: str, noreply: bool, at: float | None) -> None:
-        self.record.event("req", at=at, svc=service, api=api_id, p=parameter, noreply=noreply)
+    def _received(self, service: str, api_id: int, parameter: str, noreply: bool, at: float | None,
+                  request_id: int) -> None:
+        self.record.event("req", at=at, svc=service, api=api_id, p=parameter, noreply=noreply, id=request_id)
 
     def _handled(self, service: str, api_id: int, parameter: str, code: int) -> None:
         self.record.event("done", svc=service, api=api_id, p=parameter, code=code)

@@ -3,8 +3,10 @@
 One JSON object per line, written as it happens, with ``t`` = CLOCK_MONOTONIC (shared by every process
 of the machine, so a test can compare it with the moment it sent something). Kinds:
 
-* ``req``: an RPC request on arrival: ``svc``, ``api``, ``p`` (JSON parameter), ``noreply``. ``t`` is when
-  the sim's Cyclone delivered it (see arrivals.py), so lines are not always in ``t`` order.
+* ``req``: an RPC request on arrival: ``svc``, ``api``, ``p`` (JSON parameter), ``noreply``, ``id`` (its
+  header's identity id, as the client wrote it: Unitree's Python SDK writes its ``time.monotonic_ns()`` when it
+  built the request). ``t`` is when the sim's Cyclone delivered it (see arrivals.py), so lines are not always in
+  ``t`` order.
 * ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
 * ``frame``: an rt/lowcmd, rt/user_lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
   ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok",

@@ -265,10 +265,10 @@ class RequestCounter:
             return {s: {str(k): [dict(r) for r in v] for k, v in sorted(c.items())} for s, c in self._recent.items()}
 
 
-#: on_received(service, api_id, parameter, noreply, receive time) when a request arrives (the time Cyclone
-#: delivered it, see arrivals.py, or None: now); on_handled(service, api_id, parameter, code) once it was
-#: handled (after any injected delay). For the sim's record.
-Received = Callable[[str, int, str, bool, float | None], None]
+#: on_received(service, api_id, parameter, noreply, receive time, identity id) when a request arrives (the time
+#: Cyclone delivered it, see arrivals.py, or None: now; the id as the client wrote it); on_handled(service,
+#: api_id, parameter, code) once it was handled (after any injected delay). For the sim's record.
+Received = Callable[[str, int, str, bool, float | None, int], None]
 Handled = Callable[[str, int, str, int], None]
 
 
@@ -314,8 +314,10 @@ class SimServer(Server):
         api_id = int(request.header.identity.api_id)
         self._counter.add(self.GetName(), api_id, str(request.parameter))
         if self._on_received is not None:
-            t = self._arrivals.pop(int(request.header.identity.id)) if self._arrivals is not None else None
-            self._on_received(self.GetName(), api_id, str(request.parameter), bool(request.header.policy.noreply), t)
+            request_id = int(request.header.identity.id)
+            t = self._arrivals.pop(request_id) if self._arrivals is not None else None
+            self._on_received(self.GetName(), api_id, str(request.parameter), bool(request.header.policy.noreply), t,
+                              request_id)
         if self._faults.drops(api_id):
             return
         delay = self._faults.delay_s(api_id)
