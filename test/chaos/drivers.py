@@ -40,7 +40,7 @@ from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.relay.cmd_vel import RAMP_PERIOD_S
-from support.sim_record import Event, requests, velocity_of
+from support.sim_record import Event, requests, sent_at, velocity_of
 from support.timing import SILENT_PLANNER_STOP_S
 
 #: The node's limits (its parameters' defaults, which the chaos nodes run with).
@@ -83,7 +83,7 @@ class DriveLog:
 @dataclass(frozen=True)
 class Takeover:
     """Something that ends the autonomy's drive. A hand-over answered before ``after`` was surely done before it;
-    a Move received after ``before`` surely came after it."""
+    a Move sent after ``before`` surely came after it."""
 
     after: float
     before: float
@@ -103,8 +103,11 @@ def source_of(v: list[float], planner: bool = True) -> str | None:
 
 
 def _moves(events: list[Event]) -> list[tuple[float, list[float]]]:
-    """(receive time, velocity) of every non-zero Move the robot received."""
-    return [(e["t"], v) for e in requests(events, api_ids.LOCO_SET_VELOCITY) if (v := velocity_of(e)) and any(v)]
+    """(send time, velocity) of every non-zero Move the robot received. Who may drive is the node's decision when
+    it sends: a Move it sent before a takeover and the robot received after it, because the robot's receiving side
+    was starved meanwhile, was in flight, not sent by a source that no longer drives (the request's own stamp,
+    ``sent_at``, tells the two apart where its receive time cannot)."""
+    return [(sent_at(e), v) for e in requests(events, api_ids.LOCO_SET_VELOCITY) if (v := velocity_of(e)) and any(v)]
 
 
 def judge_drivers(events: list[Event], modes: list[tuple[float, Any]], log: DriveLog,
@@ -127,7 +130,7 @@ def judge_drivers(events: list[Event], modes: list[tuple[float, Any]], log: Driv
     handed = [c for c in log.hand_overs if c.success]
     for t, v in planner:
         if why := _not_handed(t, handed, takeovers):
-            bad.append(f"a planner Move {v} reached the robot at {t:.3f}: {why}")
+            bad.append(f"a planner Move {v} that reached the robot was sent at {t:.3f}: {why}")
             break
     bad += _judge_silence(planner, log.planner_streams)
     return bad
@@ -152,7 +155,7 @@ def _in_high_level(m: Any) -> bool:
 
 
 def _not_handed(t: float, handed: list[Call], takeovers: list[Takeover]) -> str:
-    """Why a planner Move received at ``t`` had no hand-over in force; "" if it had."""
+    """Why a planner Move sent at ``t`` had no hand-over in force; "" if it had."""
     earlier = [h for h in handed if h.sent < t]
     if not earlier:
         return "no hand-over that succeeded was requested before it"
@@ -180,7 +183,7 @@ def _judge_silence(planner: list[tuple[float, list[float]]], streams: list[list[
         again = merged[k + 1][0] if k + 1 < len(merged) else float("inf")
         late = [(t, v) for t, v in planner if last + AUTONOMY_TIMEOUT_S + SILENT_PLANNER_STOP_S < t < again]
         if late:
-            return [f"a planner Move {late[0][1]} reached the robot {late[0][0] - last:.3f} s after the planner fell "
+            return [f"a planner Move {late[0][1]} was sent {late[0][0] - last:.3f} s after the planner fell "
                     f"silent (autonomy_timeout_s {AUTONOMY_TIMEOUT_S:g})"]
     return []
 

@@ -18,7 +18,7 @@ from typing import Any
 from chaos.drivers import DriveLog, judge_drivers, judge_ramps
 from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.protocol import api_ids
-from support.sim_record import Event, confirming_damp, damped, fsm_of, requests, states, velocity_of
+from support.sim_record import Event, confirming_damp, damped, fsm_of, requests, sent_at, states, velocity_of
 
 #: After a FAULT was claimed, the robot must be seen damped within this (the e-stop's budget, its calls'
 #: injected delays), s.
@@ -162,12 +162,18 @@ def _judge_restarts(events: list[Event], restarts: list[tuple[float, float]]) ->
     mode: between the kill (plus a frame in flight) and that request, no motion reaches the robot."""
     bad = []
     for t_kill, t_request in restarts:
-        late = [(e["t"] - t_kill, what) for e in events
-                if t_kill + GRACE_S < e["t"] < t_request and (what := _forwarded_motion(e))]
+        late = [(_sent(e) - t_kill, what) for e in events
+                if t_kill + GRACE_S < _sent(e) < t_request and (what := _forwarded_motion(e))]
         if late:
             bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s after the node was killed, before its "
                        f"successor was asked for a mode")
     return bad
+
+
+def _sent(e: Event) -> float:
+    """When the node sent what the robot received: a request's own stamp (drivers._moves says why), a frame's
+    receive time (a frame carries none: late, never early)."""
+    return sent_at(e) if e["k"] == "req" else e["t"]
 
 
 def _forwarded_motion(e: Event, *, arms: bool = True) -> str:
@@ -213,8 +219,8 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
     if start is not None:
         episodes.append((start, killed_at))
     for t_fault, t_left in episodes:
-        late = [(e["t"] - t_fault, what) for e in events
-                if t_fault + GRACE_S < e["t"] < t_left and (what := _forwarded_motion(e))]
+        late = [(_sent(e) - t_fault, what) for e in events
+                if t_fault + GRACE_S < _sent(e) < t_left and (what := _forwarded_motion(e))]
         if late:
             bad.append(f"{late[0][1]} reached the robot {late[0][0]:.3f} s into FAULT")
         end = min(events[-1]["t"] if events else t_fault, killed_at)  # a killed node keeps nothing damped
@@ -225,7 +231,7 @@ def _judge_faults(events: list[Event], history: list[Event], modes: list[tuple[f
         if end - t_fault > FAULT_DAMPED_S and not any(damped(s) for s in seen):
             bad.append(f"robot not damped within {FAULT_DAMPED_S} s of FAULT")
     for t_held, t_released in holds:
-        late = [what for e in events if t_held + GRACE_S < e["t"] < t_released
+        late = [what for e in events if t_held + GRACE_S < _sent(e) < t_released
                 and (what := _forwarded_motion(e, arms=False)) and not what.startswith("SetFsmId")]
         if late:
             bad.append(f"{late[0]} reached the robot while a body check held motion")

@@ -235,6 +235,21 @@ def test_take_over_and_leaving_high_level_and_a_restart_end_the_planners_drive()
     assert any("the node stopped at 7.500 ended" in why for why in bad), bad
 
 
+def test_a_planner_move_is_judged_by_when_the_node_sent_it_not_when_a_starved_robot_received_it() -> None:
+    handed = [Call(5.0, 5.01, True)]
+    left = [(1.0, _drive_mode()), (5.02, _drive_mode(driver="autonomy")), (7.0, _drive_mode(IDLE, "nobody"))]
+
+    def received_late(sent: float) -> list[dict]:
+        # the ramp's next Move, stamped by the SDK as the node built it, reached the robot 0.1 s after the claim
+        late = _move(7.1, (0.5, 0.3, -0.8))
+        late[0]["id"] = int(sent * 1e9)
+        return late
+
+    assert _judged_drive(_planner(5.0, 39), received_late(6.99), hand_overs=handed, modes=left) == []
+    bad = _judged_drive(_planner(5.0, 39), received_late(7.08), hand_overs=handed, modes=left)
+    assert len(bad) == 1 and "was sent at 7.080: leaving HIGH_LEVEL (1) claimed at 7.000 ended" in bad[0], bad
+
+
 def test_planner_moves_past_the_autonomys_limits_or_its_command_are_violations() -> None:
     handed = [Call(5.0, 5.01, True)]
     ramp = _planner(5.0)
