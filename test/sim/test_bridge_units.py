@@ -630,3 +630,56 @@ def test_a_state_is_on_the_record_before_the_sportmodestate_frame_that_shows_it(
     assert len(frames.seen) >= 40
     assert {shown[1] for shown, _ in frames.seen} == {0, 1}, "the robot's state never changed between frames"
     assert all(shown == recorded for shown, recorded in frames.seen), frames.seen
+
+
+class _Readers(_SportFrames):
+    """Publishes nothing; 500 Hz readers matched or not, as the test sets them."""
+
+    def __init__(self, record: Path) -> None:
+        super().__init__(record)
+        self.fast = {"lowstate": False, "secondary_imu": False, "odom": False}
+
+    def publish_sportmodestate(self, *_: Any, **__: Any) -> None: ...
+
+    def wants_lowstate(self, *, also_lf: bool = False) -> bool:
+        return self.fast["lowstate"]
+
+    def wants_secondary_imu(self) -> bool:
+        return self.fast["secondary_imu"]
+
+    def wants_odom(self, *, also_lf: bool = False) -> bool:
+        return self.fast["odom"]
+
+
+class _CountingPacer:
+    """Notes the sim time of every pace() call; stops the loop after ``steps`` steps."""
+
+    def __init__(self, stop_after: int, loop: list[Any]) -> None:
+        self.paced: list[float] = []
+        self._stop_after = stop_after
+        self._loop = loop
+
+    def pace(self, sim_time: float) -> None:
+        self.paced.append(round(sim_time / 0.002))
+        if self.paced[-1] >= self._stop_after:
+            self._loop[0].stop()  # from inside the loop: it ends after this step
+
+
+@pytest.mark.parametrize("why", ["nothing", "lowstate", "secondary_imu", "odom", "frames"])
+def test_the_loop_keeps_the_2_ms_cycle_step_by_step_only_while_a_500_hz_stream_is_read_or_frames_come(
+        tmp_path: Path, why: str) -> None:
+    from g1_sim.bridge.sim_loop import IDLE_BATCH_STEPS, SimLoop
+
+    readers = _Readers(tmp_path / "unused.jsonl")
+    if why in readers.fast:
+        readers.fast[why] = True
+    holder: list[Any] = []
+    pacer = _CountingPacer(50, holder)
+    loop = SimLoop(_SteppingRobot(), readers, Faults(), pacer,  # type: ignore[arg-type]
+                   frames_within=lambda _s: why == "frames")
+    holder.append(loop)
+    loop._loop()
+    if why == "nothing":  # the steps all happen; the loop sleeps once per batch of them
+        assert pacer.paced == list(range(IDLE_BATCH_STEPS, 51, IDLE_BATCH_STEPS))
+    else:
+        assert pacer.paced == list(range(1, 51))

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections import Counter
 from collections.abc import Callable
 from operator import attrgetter
@@ -107,6 +108,11 @@ class CommandIntake:
         self._on_frame = on_frame
         self._lock = threading.Lock()
         self._counts: dict[str, Counter[str]] = {LOWCMD: Counter(), USER_LOWCMD: Counter(), ARM_SDK: Counter()}
+        self._last_frame_at = -math.inf  # CLOCK_MONOTONIC of the last frame of any topic
+
+    def frames_within(self, seconds: float) -> bool:
+        """A frame of any topic came in the last ``seconds`` (wall)."""
+        return time.monotonic() - self._last_frame_at < seconds
 
     def _count(self, topic: str, *keys: str) -> None:
         with self._lock:
@@ -142,6 +148,7 @@ class CommandIntake:
                         apply: Callable[[np.ndarray, np.ndarray], str | None]) -> str | None:
         """A frame that drives all 29 motors: the robot's checks of any such frame, then ``apply`` (the topic's own
         rule, which applies the frame or says why not); counted, and recorded through ``on_frame``."""
+        self._last_frame_at = time.monotonic()
         self._count(topic, "received")
         content = self._crc(msg)
         m = motor_arrays(msg, range(NUM_JOINTS))
@@ -159,6 +166,7 @@ class CommandIntake:
 
     def on_arm_sdk(self, msg: LowCmd_) -> str | None:
         """Apply a rt/arm_sdk frame; returns the reason it was ignored, or None."""
+        self._last_frame_at = time.monotonic()
         content = self._crc(msg)
         crc = crc_state(int(msg.crc), content)
         self._count(ARM_SDK, "received", *{CRC_NONE: (ARM_SDK_CRC0,), CRC_WRONG: (ARM_SDK_CRC_WRONG,)}.get(crc, ()))

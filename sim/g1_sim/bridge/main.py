@@ -219,7 +219,8 @@ class Bridge:
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
                             on_body=self._body if self.record.enabled else None,
                             on_odom=self._odom if self.record.enabled else None,
-                            sport_state=self._record_state if self.record.enabled else None)
+                            sport_state=self._record_state if self.record.enabled else None,
+                            frames_within=self.intake.frames_within)
         self._params = p
 
     def start(self) -> None:

@@ -19,6 +19,10 @@ rt/sportmodestate's (fsm_id, fsm_mode) is read through ``sport_state`` when one 
 records the robot's state in the same hold of the robot's lock, so the record shows a state before any frame that
 shows it leaves the sim (a client answered on that frame must find the state already on the record).
 
+The loop keeps the robot's 2 ms cycle on the wall clock, step by step, while anyone reads a 500 Hz stream or
+sends frames; otherwise it sleeps once every IDLE_BATCH_STEPS steps (the steps and what they publish are the
+same, in sim time).
+
 Every BODY_PERIOD_S of sim time the body's report (temperatures, battery, remote, with injected readings
 laid over: body_report) is taken afresh and handed to ``on_body`` (the bridge's record) before anything of that
 step is published, so the record shows a condition before any frame that shows it.
@@ -52,6 +56,13 @@ ROS_RATE_HZ = 50.0
 BMSSTATE_RATE_HZ = 5.0
 #: The body's report (and the record's ``body`` event) is renewed this often, s of sim time.
 BODY_PERIOD_S = 0.01
+#: While nobody reads a 500 Hz stream (rt/lowstate, rt/secondary_imu, rt/odommodestate) or sends frames, the loop
+#: sleeps once every this many steps (10 ms of sim time: half a period of rt/sportmodestate, the fastest stream
+#: left) instead of after every step. The sleep and its wake-up cost more than the step itself; the robot's
+#: behaviour in sim time is the same, and what leaves the sim leaves at most that much ahead of the wall clock.
+IDLE_BATCH_STEPS = 5
+#: A frame this recent (wall s) counts as a stream still being sent: its next frame is due within it.
+FRAME_STREAM_GAP_S = 0.1
 
 
 class SteppableRobot(Protocol):
@@ -87,7 +98,8 @@ class SimLoop:
     def __init__(self, robot: SteppableRobot, publishers: StatePublishers, faults: Faults, pacer: Pacer,
                  *, node: BridgeNode | None = None, stamps: StampClock | None = None,
                  on_body: BodyHook | None = None, on_odom: OdomHook | None = None,
-                 sport_state: SportRead | None = None) -> None:
+                 sport_state: SportRead | None = None, frames_within: Callable[[float], bool] | None = None) -> None:
+        """``frames_within(s)``: a joint frame came in the last s (wall); the loop then paces every step."""
         self._robot = robot
         self._pub = publishers
         self._faults = faults
@@ -97,6 +109,7 @@ class SimLoop:
         self._on_body = on_body
         self._on_odom = on_odom
         self._sport_state = sport_state or robot.sport_state
+        self._frames_within = frames_within or (lambda _s: False)
         self.rate = RateMeter()
         self.error: BaseException | None = None
         self._stop = threading.Event()
@@ -185,7 +198,14 @@ class SimLoop:
                 if node is not None and k % self._ros_every == 0 and node.publish_ros:
                     self._publish_ros(t, robot.lowstate() if s is None else s)
             self.rate.update(t)
-            self._pacer.pace(t)
+            if k % IDLE_BATCH_STEPS == 0 or self._streaming():
+                self._pacer.pace(t)
+
+    def _streaming(self) -> bool:
+        """Someone reads a 500 Hz stream or sends frames: the loop keeps the robot's 2 ms cycle step by step."""
+        pub = self._pub
+        return (pub.wants_lowstate() or pub.wants_secondary_imu() or pub.wants_odom()
+                or self._frames_within(FRAME_STREAM_GAP_S))
 
     def _publish_ros(self, t: float, s: Any) -> None:
         assert self._node is not None
