@@ -42,9 +42,10 @@ LEGS_KP, ARMS_KP, KD = 80.0, 40.0, 2.0
 STEADY = f"lowcmd_timeout_s:={CONTROLLER_STALL_S}"
 
 
-def _stand_command(**changes: tuple[float, float]) -> JointCommand:
-    """The standing pose for all 29 joints; ``changes``: joint -> (q, kp)."""
-    q = [float(v) for v in DEFAULT_POSE]
+def _stand_command(pose: list[float] | None = None, **changes: tuple[float, float]) -> JointCommand:
+    """``pose`` (default: the standing pose) for all 29 joints, held with the standing gains; ``changes``: joint ->
+    (q, kp)."""
+    q = [float(v) for v in (DEFAULT_POSE if pose is None else pose)]
     kp = [LEGS_KP if i < 15 else ARMS_KP for i in range(len(JOINT_NAMES))]
     for name, (target, stiffness) in changes.items():
         i = JOINT_NAMES.index(name)
@@ -74,9 +75,10 @@ class Controller:
 
 
 def _low_level_with_controller(stack, controller: Controller, command: JointCommand | None = None) -> float:
-    """LOW_LEVEL entered, the controller's frames (``command``, default the standing pose) reaching the
-    robot; returns when they did."""
-    controller.msg = command or _stand_command()
+    """LOW_LEVEL entered, the controller's frames (``command``, default: hold the joints where they are) reaching
+    the robot; returns when they did. Where they are, not the standing pose: after a phase's damping the limbs hang
+    on the gantry, and a stiff step back to the standing pose can spin a joint past the joint-speed limit."""
+    controller.msg = command or _stand_command(_measured_pose(stack))
     reply = stack.set_mode("low_level")
     assert reply.success, reply.message
     t = time.monotonic()
@@ -85,13 +87,14 @@ def _low_level_with_controller(stack, controller: Controller, command: JointComm
     return time.monotonic()
 
 
-def _joint_position(stack, name: str) -> float:
-    """The joint's position in the sim's next /joint_states message."""
+def _measured_pose(stack) -> list[float]:
+    """The 29 joint positions in motor order, from the sim's next /joint_states message (its own measurement)."""
     got: list[JointState] = []
     # kept, not destroyed: destroying an entity while the client's executor waits on it kills that executor
     stack.ros.node.create_subscription(JointState, "/joint_states", got.append, 10)
     assert wait_until(lambda: bool(got), 10.0), "no /joint_states from the sim"
-    return float(got[-1].position[list(got[-1].name).index(name)])
+    by_name = dict(zip(got[-1].name, got[-1].position, strict=True))
+    return [float(by_name[name]) for name in JOINT_NAMES]
 
 
 def _user_frames(stack, since: float) -> list[dict]:
@@ -246,7 +249,7 @@ def test_low_level_checks_damp_a_streaming_controller(shared_stack_factory) -> N
 
         # a joint spins: the controller steps a wrist far and hard
         t0 = _low_level_with_controller(stack, controller)
-        controller.msg = _stand_command(left_wrist_roll_joint=(1.5, 500.0))
+        controller.msg = _stand_command(_measured_pose(stack), left_wrist_roll_joint=(1.5, 500.0))
         t_fast = _first_body(stack, t0, "dq", 10.0)
         # measured by the sim, not injected: the frames that first showed it may precede the record's first sample
         # of it by more than a sample period on a starved sim, never the sample before
@@ -256,11 +259,9 @@ def test_low_level_checks_damp_a_streaming_controller(shared_stack_factory) -> N
         _damped_on_the_robot(stack, t0)
         _clear_to_idle(stack)
 
-        # the gantry lets go: the robot, held stiff by its controller, topples over (the wrist held where the
-        # last phase's damping left it, which depends on how far it had spun: stepped away from there, it would
-        # spin past the limit again)
-        wrist = _joint_position(stack, "left_wrist_roll_joint")
-        t0 = _low_level_with_controller(stack, controller, _stand_command(left_wrist_roll_joint=(wrist, ARMS_KP)))
+        # the gantry lets go: the robot, held stiff by its controller where the last phase's damping left it,
+        # topples over
+        t0 = _low_level_with_controller(stack, controller)
         stack.set_gantry(False)
         assert wait_until(lambda: any(m.mode == ModeMsg.FAULT for m in stack.modes()), 10.0)
         t_fall = min(_first_body(stack, t0, "tilt", 1.0), _first_body(stack, t0, "gyro", 6.0))
