@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 
 import pytest
 from g1_mode_manager_msgs.msg import JointCommand
@@ -90,11 +90,17 @@ def _low_level_with_controller(stack, controller: Controller, command: JointComm
 
 def _measured_pose(stack) -> list[float]:
     """The 29 joint positions in motor order, from the sim's next /joint_states message (its own measurement)."""
-    got: list[JointState] = []
-    # kept, not destroyed: destroying an entity while the client's executor waits on it kills that executor
-    stack.ros.node.create_subscription(JointState, "/joint_states", got.append, 10)
+    if not hasattr(stack, "sim_joint_states"):
+        # one subscription per stack, kept: destroying an entity while the client's executor waits on it kills that
+        # executor, and every one kept is another 50 Hz callback until the client closes
+        newest: deque[JointState] = deque(maxlen=1)
+        stack.sim_joint_states = newest
+        stack.ros.node.create_subscription(JointState, "/joint_states", lambda msg: newest.append(msg), 10)
+    got = stack.sim_joint_states
+    got.clear()
     assert wait_until(lambda: bool(got), 10.0), "no /joint_states from the sim"
-    by_name = dict(zip(got[-1].name, got[-1].position, strict=True))
+    latest = got[-1]
+    by_name = dict(zip(latest.name, latest.position, strict=True))
     return [float(by_name[name]) for name in JOINT_NAMES]
 
 
