@@ -27,7 +27,8 @@ of the machine, so a test can compare it with the moment it sent something). Kin
 
 The sim thread's own lines (``body``, ``odom``, a ``state`` it finds) are written when their step is computed: while
 nobody is on a 500 Hz stream the sim steps in batches (sim_loop.IDLE_BATCH_STEPS), so such a line may be written up
-to 10 ms before the wall clock reaches its step, never after; a reaction timed from it is overstated, not flattered.
+to 10 ms before the wall clock reaches its step (a reaction timed from it is overstated, not flattered); a starved
+sim writes it late, as it always could.
 
 This is what end-to-end and chaos tests judge by: the robot's side, never the node's belief.
 """
