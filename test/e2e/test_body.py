@@ -135,12 +135,7 @@ def _first_damping_frame(stack, since: float) -> float:
 
 def _first_body(stack, since: float, field: str, above: float, timeout_s: float = 5.0) -> float:
     """When the sim's body first showed ``field`` above ``above`` (waits for it)."""
-
-    def found() -> list[dict]:
-        return [e for e in of_kind(stack.record.events(since), "body") if e[field] > above]
-
-    assert wait_until(lambda: bool(found()), timeout_s), f"the sim never showed {field} above {above}"
-    return found()[0]["t"]
+    return _first_body_past(stack, since, {field: above}, timeout_s)
 
 
 #: The record's body fields a falling robot shows first, and the node's LOW_LEVEL FAULT limits on them.
@@ -148,15 +143,15 @@ FALL_SIGNS = {"tilt": CHECKS["tilt"].threshold, "gyro": CHECKS["spin"].threshold
               "dq": CHECKS["joint_speed"].threshold}
 
 
-def _first_fall_sign(stack, since: float, timeout_s: float = 5.0) -> float:
-    """When the sim's body first showed any of FALL_SIGNS past its limit (waits for it): which one comes first
-    depends on the pose the robot falls from."""
+def _first_body_past(stack, since: float, limits: dict[str, float], timeout_s: float = 5.0) -> float:
+    """When the sim's body first showed any of ``limits``' fields above its limit (waits for it). For a fall,
+    FALL_SIGNS: which one comes first depends on the pose the robot falls from."""
 
     def found() -> list[dict]:
         return [e for e in of_kind(stack.record.events(since), "body")
-                if any(e[field] > limit for field, limit in FALL_SIGNS.items())]
+                if any(e[field] > limit for field, limit in limits.items())]
 
-    assert wait_until(lambda: bool(found()), timeout_s), f"the sim never showed a sign of a fall {FALL_SIGNS}"
+    assert wait_until(lambda: bool(found()), timeout_s), f"the sim never showed any of {limits}"
     return found()[0]["t"]
 
 
@@ -288,7 +283,7 @@ def test_low_level_checks_damp_a_streaming_controller(shared_stack_factory) -> N
         t0 = _low_level_with_controller(stack, controller)
         stack.set_gantry(False)
         assert wait_until(lambda: any(m.mode == ModeMsg.FAULT for m in stack.modes()), 10.0)
-        t_fall = _first_fall_sign(stack, t0)
+        t_fall = _first_body_past(stack, t0, FALL_SIGNS)
         _damping_reaction(stack, "a fall in LOW_LEVEL: damping frames", t_fall, LOW_LEVEL_REACTION_S,
                           since=_body_before(stack, t_fall))
         _fault_seen(stack, "tilt", "spin", "joint_speed")

@@ -632,14 +632,18 @@ def test_a_state_is_on_the_record_before_the_sportmodestate_frame_that_shows_it(
     assert all(shown == recorded for shown, recorded in frames.seen), frames.seen
 
 
-class _Readers(_SportFrames):
+class _Readers:
     """Publishes nothing; 500 Hz readers matched or not, as the test sets them."""
 
-    def __init__(self, record: Path) -> None:
-        super().__init__(record)
+    def __init__(self) -> None:
         self.fast = {"lowstate": False, "secondary_imu": False, "odom": False}
 
     def publish_sportmodestate(self, *_: Any, **__: Any) -> None: ...
+    def count_unread(self, *_: Any, **__: Any) -> None: ...
+    def publish_lowstate(self, *_: Any, **__: Any) -> None: ...
+    def publish_secondary_imu(self, *_: Any) -> None: ...
+    def publish_odom(self, *_: Any, **__: Any) -> None: ...
+    def publish_bmsstate(self, *_: Any) -> None: ...
 
     def wants_lowstate(self, *, also_lf: bool = False) -> bool:
         return self.fast["lowstate"]
@@ -667,10 +671,10 @@ class _CountingPacer:
 
 @pytest.mark.parametrize("why", ["nothing", "lowstate", "secondary_imu", "odom", "frames"])
 def test_the_loop_keeps_the_2_ms_cycle_step_by_step_only_while_a_500_hz_stream_is_read_or_frames_come(
-        tmp_path: Path, why: str) -> None:
+        why: str) -> None:
     from g1_sim.bridge.sim_loop import IDLE_BATCH_STEPS, SimLoop
 
-    readers = _Readers(tmp_path / "unused.jsonl")
+    readers = _Readers()
     if why in readers.fast:
         readers.fast[why] = True
     holder: list[Any] = []
