@@ -16,12 +16,16 @@ from g1_mode_manager.protocol.motors import (
     EFFORT_LIMIT_NM,
     JOINT_INDEX,
     JOINT_NAMES,
+    JOINT_RANGE_RAD,
     NUM_JOINTS,
 )
 
 #: Gains above these are refused: no G1 joint is stable with more (N m/rad, N m s/rad).
 MAX_KP = 500.0
 MAX_KD = 50.0
+#: A position target may lie this far outside its joint's range (rad): a hold at a measured pose that the
+#: model's soft limits let the joint overshoot slightly is still a hold, a target of 100 rad is a bug.
+RANGE_MARGIN_RAD = 0.1
 
 
 class JointCommandError(ValueError):
@@ -97,11 +101,15 @@ def _check_names(names: Sequence[str], allowed: Sequence[str]) -> list[int]:
 
 
 @lru_cache(maxsize=64)
-def _indices(names: tuple[str, ...], allowed: tuple[str, ...]) -> tuple[tuple[int, ...], tuple[float, ...]]:
-    """(motor indices, effort limits) of a list of names; checked once per distinct list (a controller sends the
-    same names every time). Raises JointCommandError (and caches nothing) for a bad list."""
+def _indices(names: tuple[str, ...], allowed: tuple[str, ...]) -> tuple[tuple[int, ...], tuple[float, ...],
+                                                                      tuple[float, ...], tuple[float, ...]]:
+    """(motor indices, effort limits, lowest and highest position targets) of a list of names; checked once per
+    distinct list (a controller sends the same names every time). Raises JointCommandError (and caches nothing)
+    for a bad list."""
     indices = tuple(_check_names(names, allowed))
-    return indices, tuple(EFFORT_LIMIT_NM[i] for i in indices)
+    return (indices, tuple(EFFORT_LIMIT_NM[i] for i in indices),
+            tuple(JOINT_RANGE_RAD[i][0] - RANGE_MARGIN_RAD for i in indices),
+            tuple(JOINT_RANGE_RAD[i][1] + RANGE_MARGIN_RAD for i in indices))
 
 
 def _column(values: Sequence[float], n: int) -> tuple[float, ...]:
@@ -122,17 +130,18 @@ def validate_joint_command(
     *,
     allowed: Sequence[str],
 ) -> JointFrame:
-    """Check names, lengths, finiteness, gain and torque bounds; dq and tau may be empty (zero).
+    """Check names, lengths, finiteness, position ranges, gain and torque bounds; dq and tau may be empty (zero).
 
     Whole columns are checked at once (C builtins over tuples: cheap enough for every message of a 500 Hz
     stream); only a refused command is looked at joint by joint, to say which joint and why.
     """
     n = len(names)
     if n and len(q) == n and len(kp) == n and len(kd) == n and len(dq) in (0, n) and len(tau) in (0, n):
-        indices, limits = _indices(tuple(names), tuple(allowed))
+        indices, limits, lows, highs = _indices(tuple(names), tuple(allowed))
         cols = (_column(q, n), _column(dq, n), _column(tau, n), _column(kp, n), _column(kd, n))
         qc, dqc, tauc, kpc, kdc = cols
         if (all(map(isfinite, qc)) and all(map(isfinite, dqc)) and all(map(isfinite, tauc))
+                and all(map(le, lows, qc)) and all(map(le, qc, highs))
                 and _within(kpc, MAX_KP) and _within(kdc, MAX_KD) and all(map(le, map(abs, tauc), limits))):
             return JointFrame(indices, *cols)
     _explain(names, q, dq, tau, kp, kd, allowed)
@@ -148,6 +157,10 @@ def _explain(names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau:
         cmd = MotorCommand(q=_value(q, i), dq=_value(dq, i), tau=_value(tau, i), kp=_value(kp, i), kd=_value(kd, i))
         if not all(isfinite(v) for v in (cmd.q, cmd.dq, cmd.tau, cmd.kp, cmd.kd)):
             raise JointCommandError(f"non-finite value for {names[i]}: {cmd}")
+        low, high = JOINT_RANGE_RAD[motor]
+        if not low - RANGE_MARGIN_RAD <= cmd.q <= high + RANGE_MARGIN_RAD:
+            raise JointCommandError(f"q {cmd.q} of {names[i]} is outside its range [{low}, {high}] rad "
+                                    f"(+- {RANGE_MARGIN_RAD} rad allowed)")
         if not 0.0 <= cmd.kp <= MAX_KP or not 0.0 <= cmd.kd <= MAX_KD:
             raise JointCommandError(f"gains of {names[i]} out of range (0 <= kp <= {MAX_KP}, 0 <= kd <= {MAX_KD})")
         if abs(cmd.tau) > EFFORT_LIMIT_NM[motor]:

@@ -2,7 +2,7 @@
 temperatures and the remote's bytes, decoded with ``struct`` from the fixed CDR layout.
 
 Offsets after the 4-byte encapsulation header (checked against cyclonedds' serialisation by a test): the
-IMU quaternion (w, x, y, z) and gyroscope at 16; MotorState_ i has dq at 76 + 56 i and its two int16
+IMU quaternion (w, x, y, z) and gyroscope at 16; MotorState_ i has q at 72 + 56 i, dq at 76 + 56 i and its two int16
 temperatures (casing, winding: ``temperature[0]``, ``temperature[1]`` as Unitree's termination checks read
 them) at 88 + 56 i; ``wireless_remote`` (40 bytes) at 2028. Other encodings are deserialised by
 ``protocol.lowstate_fields.decode_body_fields``: this module imports no DDS, so that the core can name the fields.
@@ -29,12 +29,15 @@ class BodyFields:
     casing_c: tuple[int, ...]  # temperature[0]
     winding_c: tuple[int, ...]  # temperature[1]
     remote: bytes  # wireless_remote
+    #: joint positions, rad: what a controller in the node's loop reads beside the checks' fields of the same sample
+    q: tuple[float, ...] = ()
 
 
 _IMU: Final = struct.Struct("<7f")  # quaternion[4], gyroscope[3]
 _IMU_AT: Final = 4 + 16
 _DQ: Final = struct.Struct("<" + "f52x" * (NUM_JOINTS - 1) + "f")
 _DQ_AT: Final = 4 + 76
+_Q_AT: Final = 4 + 72  # the same stride as dq
 _TEMPERATURE: Final = struct.Struct("<" + "hh52x" * (NUM_JOINTS - 1) + "hh")
 _TEMPERATURE_AT: Final = 4 + 88
 _REMOTE_AT: Final = 4 + 2028
@@ -49,4 +52,4 @@ def unpack_body_fields(data: bytes) -> BodyFields | None:
     temperatures = _TEMPERATURE.unpack_from(data, _TEMPERATURE_AT)
     return BodyFields(quaternion=imu[0:4], gyroscope=imu[4:7], dq=_DQ.unpack_from(data, _DQ_AT),
                       casing_c=temperatures[0::2], winding_c=temperatures[1::2],
-                      remote=bytes(data[_REMOTE_AT:_REMOTE_AT + REMOTE_BYTES]))
+                      remote=bytes(data[_REMOTE_AT:_REMOTE_AT + REMOTE_BYTES]), q=_DQ.unpack_from(data, _Q_AT))

@@ -78,4 +78,4 @@ def decode_body_fields_slowly(data: bytes) -> BodyFields:
     imu = msg.imu_state
     return BodyFields(tuple(map(float, imu.quaternion)), tuple(map(float, imu.gyroscope)),  # type: ignore[arg-type]
                       tuple(float(m.dq) for m in motors), casing, winding,
-                      bytes(int(b) & 0xFF for b in msg.wireless_remote))
+                      bytes(int(b) & 0xFF for b in msg.wireless_remote), tuple(float(m.q) for m in motors))

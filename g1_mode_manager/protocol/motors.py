@@ -45,3 +45,15 @@ WINDING_TEMPERATURE_INDEX: Final = 1
 
 #: Damping gain used when a joint must go soft (kp 0), N m s / rad.
 DAMPING_KD: Final = 8.0
+
+#: Joint position ranges in rad, by motor index: the joints' ``range`` in Unitree's G1 model (MuJoCo Menagerie
+#: unitree_g1/g1.xml, the sim's model; test/sdk/test_joint_ranges.py holds them against it).
+_LEFT_LEG_RANGE = ((-2.5307, 2.8798), (-0.5236, 2.9671), (-2.7576, 2.7576), (-0.087267, 2.8798),
+                   (-0.87267, 0.5236), (-0.2618, 0.2618))
+_RIGHT_LEG_RANGE = ((-2.5307, 2.8798), (-2.9671, 0.5236), (-2.7576, 2.7576), (-0.087267, 2.8798),
+                    (-0.87267, 0.5236), (-0.2618, 0.2618))
+_WAIST_RANGE = ((-2.618, 2.618), (-0.52, 0.52), (-0.52, 0.52))
+_WRISTS_RANGE = ((-1.97222, 1.97222), (-1.61443, 1.61443), (-1.61443, 1.61443))
+_LEFT_ARM_RANGE = ((-3.0892, 2.6704), (-1.5882, 2.2515), (-2.618, 2.618), (-1.0472, 2.0944), *_WRISTS_RANGE)
+_RIGHT_ARM_RANGE = ((-3.0892, 2.6704), (-2.2515, 1.5882), (-2.618, 2.618), (-1.0472, 2.0944), *_WRISTS_RANGE)
+JOINT_RANGE_RAD: Final = (*_LEFT_LEG_RANGE, *_RIGHT_LEG_RANGE, *_WAIST_RANGE, *_LEFT_ARM_RANGE, *_RIGHT_ARM_RANGE)
