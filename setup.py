@@ -11,7 +11,8 @@ setup(
     + find_packages("sim", include=["g1_sim", "g1_sim.*"]),
     package_dir={"g1_sim": "sim/g1_sim"},
     # the operator console's page, inlined into one response at start
-    package_data={"g1_mode_manager.console": ["static/*.html", "static/*.css", "static/*.js"]},
+    package_data={"g1_mode_manager.console": ["static/*.html", "static/*.css", "static/*.js"],
+                  "g1_mode_manager.policy": ["configs/*.yaml"]},  # the built-in policies' deploy configs
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),

@@ -23,9 +23,11 @@ from g1_mode_manager.protocol.motors import (
 #: Gains above these are refused: no G1 joint is stable with more (N m/rad, N m s/rad).
 MAX_KP = 500.0
 MAX_KD = 50.0
-#: A position target may lie this far outside its joint's range (rad): a hold at a measured pose that the
-#: model's soft limits let the joint overshoot slightly is still a hold, a target of 100 rad is a bug.
-RANGE_MARGIN_RAD = 0.1
+#: A position target may lie this far outside its joint's range (rad): a PD target past the stop is how a policy
+#: presses a joint against it (holosoma's walker sets an ankle 0.14 rad past its range while it stands, and no
+#: field deploy clips its targets), the torque it costs is kp times the excess and capped by the motor; a target
+#: of 100 rad is a bug.
+RANGE_MARGIN_RAD = 0.5
 
 
 class JointCommandError(ValueError):

@@ -55,12 +55,20 @@ class CommandStreams:
         self._node.destroy_node()
 
     def _on_cmd_vel(self, data: bytes) -> None:
-        self._parts.cmd_vel.submit(*twist_velocity(data))
+        self._velocity(*twist_velocity(data))
 
     def _on_cmd_vel_stamped(self, msg: TwistStamped) -> None:
         if self._fresh(msg, "cmd_vel", self._cmd_vel_timeout_s):
             t = msg.twist
-            self._parts.cmd_vel.submit(t.linear.x, t.linear.y, t.angular.z)
+            self._velocity(t.linear.x, t.linear.y, t.angular.z)
+
+    def _velocity(self, vx: float, vy: float, wz: float) -> None:
+        """The teleop's velocity: to the policy while one drives the robot in LOW_LEVEL, else to LocoClient."""
+        policy = self._parts.policy
+        if policy.takes_velocity():
+            policy.offer_velocity(vx, vy, wz)
+        else:
+            self._parts.cmd_vel.submit(vx, vy, wz)
 
     def _on_autonomy(self, data: bytes) -> None:
         sources = self._parts.cmd_vel.sources
@@ -88,4 +96,9 @@ class CommandStreams:
         self._parts.arm_worker.wake()
 
     def _on_lowcmd(self, data: bytes) -> None:
+        if self._parts.policy.owns_low_level():  # two writers would interleave their frames on the robot
+            events = self._parts.log.events
+            events.count("lowcmd_refused_policy")
+            events.log("warn", "lowcmd_policy", "~/lowcmd refused: a policy runs in LOW_LEVEL (~/policy/disengage)")
+            return
         self._parts.lowcmd.submit(*self._lowcmd_reader.fields(data))

@@ -30,7 +30,7 @@ class ModeManagerNode(Node):
         self.settings = s = declare_settings(self)
         p, e = wire(self, s, port_factory(s))
         self.parts, self.endpoints, self.machine = p, e, p.machine
-        for worker in (p.cmd_vel, p.arm_worker, p.lowcmd_worker):
+        for worker in (p.cmd_vel, p.arm_worker, p.lowcmd_worker, p.policy_worker):
             worker.start()
         e.estop.start()
         p.supervisor.start()
@@ -54,6 +54,7 @@ class ModeManagerNode(Node):
         p.arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
         p.body.stop()
         p.supervisor.stop()
+        p.policy_worker.stop()  # the policy's last frame stands; the relay's hold and hand-back take over
         p.lowcmd.at_exit()  # user_ctrl: the robot handed back to its own controller while the hold still goes out
         for worker in (p.cmd_vel, p.arm_worker, p.lowcmd_worker):
             worker.stop()  # the cmd_vel sender sends a StopMove if the robot may be walking

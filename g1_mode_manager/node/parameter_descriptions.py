@@ -130,6 +130,21 @@ DESCRIPTIONS: dict[str, str] = {
     "user_ctrl_rest_speed_rad_s": "user_ctrl: the entry waits until every joint is slower than this (the hand-over "
     "frame holds a pose; one taken mid-step falls over), rad/s.",
     "user_ctrl_rest_timeout_s": "user_ctrl: how long the entry waits for the robot at rest before it refuses, s.",
+    "policy": "The policy ~/policy/load loads when its request names none: a built-in (loco_ppo, loco_fastsac, "
+    "dance_ppo, dance_fastsac) or a deploy config's path (.yaml; docs/policies.md).",
+    "policy_dir": "Where the policies' ONNX models are; '' = the ones set-up extracted from holosoma-inference's "
+    "wheel into <prefix>/share/g1_mode_manager/sim_assets/policy. Read at start.",
+    "policy_blend_s": "Engage: the policy's targets are blended in from the measured pose over this long, s.",
+    "policy_engage_max_error_rad": "Engage is refused while the shadow's latest target of any joint is further than "
+    "this from its measured position, rad.",
+    "policy_state_timeout_s": "An engaged policy ticks only on an rt/lowstate sample at most this old; an older "
+    "one (a frozen or lost stream) is a fault of the loop: hold, then hand back, s.",
+    "policy_overrun_s": "A tick (state sample to frame) longer than this is an overrun, s; policy_max_overruns in a "
+    "row are a fault of the loop.",
+    "policy_max_overruns": "Overruns in a row that stop the policy (hold, then hand back).",
+    "policy_disengage": "~/policy/disengage: 'walkrun' hands the robot back to its own controller standing "
+    "(SwitchToInternalCtrl WALKRUN, LOW_LEVEL -> HIGH_LEVEL); 'hold' holds the last pose in LOW_LEVEL "
+    "(disengage again to hand back).",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }
@@ -147,6 +162,10 @@ RANGES: dict[str, tuple[float, float]] = {
     "user_ctrl_switch_timeout_s": (0.05, 10.0),
     "user_ctrl_hold_kp": (0.0, MAX_KP),
     "user_ctrl_hold_kd": (0.0, MAX_KD),
+    "policy_blend_s": (0.0, 30.0),
+    "policy_engage_max_error_rad": (0.0, 3.0),
+    "policy_state_timeout_s": (0.004, 1.0),
+    "policy_overrun_s": (1e-6, 1.0),
 }
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from g1_mode_manager.core.controller.interface import Controller
 from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
@@ -28,6 +29,7 @@ from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
+from g1_mode_manager.relay.policy_runner import PolicyRunner
 from g1_mode_manager.relay.user_lowcmd import UserLowCmdRelay
 from g1_mode_manager.relay.walk_judge import WalkJudge
 
@@ -46,6 +48,8 @@ class Parts:
     arm_worker: PeriodicWorker  # the arm and lowcmd workers sleep while their stream cannot pass
     lowcmd: LowCmdRelay
     lowcmd_worker: PeriodicWorker
+    policy: PolicyRunner  # a controller in the node's own loop, its frames through the lowcmd relay
+    policy_worker: PeriodicWorker
     loco: LocoCommands
     lowstate_demand: LowStateDemand
     supervisor: PeriodicWorker
@@ -57,6 +61,7 @@ class Parts:
         """A mode change may give a sleeping relay worker something to do (LOW_LEVEL damping, exit damping)."""
         self.arm_worker.wake()
         self.lowcmd_worker.wake()
+        self.policy_worker.wake()
 
 
 def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
@@ -83,13 +88,18 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
                    kp=s.arm_kp, kd=s.arm_kd, period_s=1.0 / s.arm_rate_hz)
     body = BodySupervision(port, machine, events, s, on_error)
     lowcmd = _lowcmd_relay(s, port, machine, link, events, deadman=body.watch.deadman_held)
+    policy = PolicyRunner(port, machine, lowcmd, events, loader=lambda name: _load_policy(name, s),
+                          limits=s.policy_limits(), velocity_limits=s.velocity_limits(),
+                          cmd_vel_timeout_s=s.cmd_vel_timeout_s, hold_gains=(s.user_ctrl_hold_kp, s.user_ctrl_hold_kd))
     loco = LocoCommands(port, machine, outcome_timeout_s=s.loco_outcome_timeout_s,
                         motion_timeout_s=s.loco_motion_timeout_s, get_up_timeout_s=s.loco_get_up_timeout_s,
                         tilt=lambda: body.watch.readings.tilt_rad)
     # lowcmd first: its damping frames are the urgent ones; loco last: it only wakes waiting answers
-    for relay in (lowcmd, arm, cmd_vel, loco):
+    for relay in (lowcmd, policy, arm, cmd_vel, loco):
         machine.add_leave_listener(relay.on_leave)
-    lowstate_demand = LowStateDemand(port, machine, arm.busy, link.link_ok, always=s.joint_state_rate_hz > 0)
+    # a policy reads rt/lowstate from its shadow on, as the arms' ramp does
+    lowstate_demand = LowStateDemand(port, machine, lambda: arm.busy() or policy.ticking(), link.link_ok,
+                                     always=s.joint_state_rate_hz > 0)
     # The head LED's own worker *reads* the mode (no leave listener, no machine lock held while it talks to the
     # robot), so a slow voice service never delays an e-stop.
     head_led = head_led_worker = None
@@ -104,12 +114,16 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
         lowcmd=lowcmd,
         lowcmd_worker=PeriodicWorker("lowcmd_relay", s.lowcmd_damping_rate_hz, lowcmd.tick, on_error,
                                      busy=lowcmd.busy),
+        policy=policy,
+        policy_worker=PeriodicWorker("policy_loop", 50.0, policy.tick, on_error, busy=policy.ticking,
+                                     period_s=policy.period_s),
         loco=loco, lowstate_demand=lowstate_demand,
         supervisor=PeriodicWorker("supervisor", s.supervise_rate_hz,
                                   RobotSupervisor(port, machine, lowstate_demand).step, on_error),
         body=body, head_led=head_led, head_led_worker=head_led_worker,
     )
     machine.add_leave_listener(parts.wake_relay_workers)  # after the relays': exit damping is due now
+    policy.wake = parts.policy_worker.wake
     if machine.user_ctrl_link is not None:  # the hand-over frames start while the lowcmd worker may sleep
         machine.user_ctrl_link.wake = parts.lowcmd_worker.wake
     return parts
@@ -126,3 +140,10 @@ def _lowcmd_relay(s: Settings, port: RobotPort, machine: ModeMachine, link: Link
     return UserLowCmdRelay(port, machine, link, events, user_ctrl=user_ctrl, silence=config.silence,
                            hand_back=machine.hand_back_on_silence, hold_kp=config.hold_kp, hold_kd=config.hold_kd,
                            **kwargs)
+
+
+def _load_policy(name: str, s: Settings) -> Controller:
+    """onnxruntime is imported with the first policy loaded, not with every node."""
+    from g1_mode_manager.policy.loader import load_policy
+
+    return load_policy(name, s.policy_models())

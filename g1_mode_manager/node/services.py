@@ -19,6 +19,7 @@ from std_srvs.srv import Trigger
 
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.node.parts import Parts
+from g1_mode_manager.node.policy_endpoints import PolicyEndpoints
 from g1_mode_manager.node.side_node import SideNode
 
 #: Threads of the services' side node: a transition, loco commands waiting for their outcome, a clear_fault.
@@ -28,7 +29,7 @@ SERVICE_THREADS = 6
 class Services:
     """Serves the main node's services from a side node's executor."""
 
-    def __init__(self, main: Node, parts: Parts) -> None:
+    def __init__(self, main: Node, parts: Parts, default_policy: str) -> None:
         self._log = main.get_logger()
         self._parts = parts
         self._side = SideNode(main, "services", MultiThreadedExecutor(num_threads=SERVICE_THREADS,
@@ -40,11 +41,14 @@ class Services:
                                          (Trigger, "hand_over_to_autonomy", self._on_hand_over),
                                          (Trigger, "take_over", self._on_take_over)):
             self._side.node.create_service(srv_type, self._side.name_under_main(name), callback, callback_group=group)
+        self.policy = PolicyEndpoints(main, self._side, group, parts.policy, default_policy, parts.log.worker_error)
 
     def start(self) -> None:
         self._side.start()
+        self.policy.start()
 
     def shutdown(self) -> None:
+        self.policy.stop()
         self._side.shutdown()
 
     def _on_set_mode(self, request: SetMode.Request, response: SetMode.Response) -> SetMode.Response:

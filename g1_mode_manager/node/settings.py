@@ -9,7 +9,9 @@ parameter's description and range are in parameter_descriptions.py.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 from rclpy.node import Node
 
@@ -22,6 +24,10 @@ from g1_mode_manager.display.head_led import LedLook
 from g1_mode_manager.node.parameter_descriptions import descriptor
 from g1_mode_manager.node.renamed_parameters import read_old_names
 from g1_mode_manager.protocol.remote import key_mask
+from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyLimits
+
+#: The models set-up extracts from holosoma-inference's pinned wheel (scripts/fetch_assets.py), under the prefix.
+POLICY_MODELS = Path("share", "g1_mode_manager", "sim_assets", "policy")
 
 
 @dataclass(frozen=True)
@@ -118,6 +124,15 @@ class Settings:
     user_ctrl_silence: str = UserCtrlConfig.silence.value
     user_ctrl_rest_speed_rad_s: float = UserCtrlConfig.rest_speed_rad_s
     user_ctrl_rest_timeout_s: float = UserCtrlConfig.rest_timeout_s
+    # --- a policy in the node's own loop (relay/policy_runner.py, docs/policies.md) ---
+    policy: str = "loco_ppo"
+    policy_dir: str = ""
+    policy_blend_s: float = PolicyLimits.blend_s
+    policy_engage_max_error_rad: float = PolicyLimits.engage_max_error_rad
+    policy_state_timeout_s: float = PolicyLimits.state_timeout_s
+    policy_overrun_s: float = PolicyLimits.overrun_s
+    policy_max_overruns: int = PolicyLimits.max_overruns
+    policy_disengage: str = PolicyLimits.disengage.value
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
@@ -132,6 +147,15 @@ class Settings:
                               hold_kd=self.user_ctrl_hold_kd, silence=SilenceReaction(self.user_ctrl_silence),
                               rest_speed_rad_s=self.user_ctrl_rest_speed_rad_s,
                               rest_timeout_s=self.user_ctrl_rest_timeout_s)
+
+    def policy_limits(self) -> PolicyLimits:
+        return PolicyLimits(blend_s=self.policy_blend_s, engage_max_error_rad=self.policy_engage_max_error_rad,
+                            state_timeout_s=self.policy_state_timeout_s, overrun_s=self.policy_overrun_s,
+                            max_overruns=self.policy_max_overruns, disengage=DisengageTo(self.policy_disengage))
+
+    def policy_models(self) -> Path:
+        """Where the built-in policies' models are: ``policy_dir``, or the ones set-up extracted into the prefix."""
+        return Path(self.policy_dir).expanduser() if self.policy_dir else Path(sys.prefix) / POLICY_MODELS
 
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)
@@ -182,7 +206,8 @@ def declare_settings(node: Node) -> Settings:
             LedLook.parse(values[name])
         except ValueError as exc:
             raise ValueError(f"parameter {name}: {exc}") from None
-    for name, choices in (("low_level_path", LowLevelPath), ("user_ctrl_silence", SilenceReaction)):
+    for name, choices in (("low_level_path", LowLevelPath), ("user_ctrl_silence", SilenceReaction),
+                          ("policy_disengage", DisengageTo)):
         if values[name] not in {c.value for c in choices}:
             raise ValueError(f"parameter {name}: {values[name]!r} is none of {', '.join(c.value for c in choices)}")
     for name in ("remote_estop_keys", "lowcmd_deadman_key"):

@@ -65,5 +65,6 @@ def wire(node: Node, settings: Settings, port: RobotPort) -> tuple[Parts, Endpoi
     changes.add(parts.wake_relay_workers)
     changes.add(state.publish_mode)
     parts.cmd_vel.sources.on_driver_change = state.publish_mode  # a takeover is on ~/mode at once
-    return parts, Endpoints(state=state, services=Services(node, parts), streams=CommandStreams(node, settings, parts),
+    services = Services(node, parts, settings.policy)
+    return parts, Endpoints(state=state, services=services, streams=CommandStreams(node, settings, parts),
                             estop=EstopEndpoint(node, parts.machine.estop_shot, parts.machine.estop))

@@ -59,6 +59,11 @@ class LowCmdRelay:
             self._events.count("lowcmd_rejected")
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
             return str(exc)
+        return self.submit_frame(frame)
+
+    def submit_frame(self, frame: JointFrame) -> str | None:
+        """Forward one checked frame (a ``~/lowcmd`` message's, or a controller's in the node's own loop) under the
+        same gate, link, dead-man and silence rules; returns an error text if it did not go out."""
         deadman = self._deadman()
         # the gate's decision is the only look at the mode: the link is judged for the mode it saw
         with self._gate.forwarding(modes.allows_low_level_commands) as decision:
@@ -87,6 +92,11 @@ class LowCmdRelay:
                 self._damp_until = self._clock() + self._exit_damping_s
                 self._released_at_stop = target in (Mode.EMERGENCY, Mode.FAULT)
         self._events.log("info", "lowcmd_exit", f"leaving LOW_LEVEL for {target.name}: {sent} damping frames sent")
+
+    def end_stream(self) -> None:
+        """The stream's source stopped on a fault of its own: react now as to silence (damping here; the user_ctrl
+        relay's hold and hand-back), instead of after lowcmd_timeout_s more of the robot holding its last frame."""
+        self._watchdog.reset()
 
     def at_exit(self) -> None:
         """Before the node stops its workers: nothing to do here (a silent stream already left damping frames)."""

@@ -139,14 +139,14 @@ def enter_user_ctrl(stack, controller: HoldController) -> float:
     return t0
 
 
-def no_user_frame_before_1000(ev) -> None:
+def no_user_frame_before_1000(ev, user_kp: float = USER_KP) -> None:
     """No user frame let through before fsm 1000 (by the record's order: a frame is judged when the sim handles it,
     and the state line comes before the first frame it lets through), and the hand-over frame arrived at the robot
     before the switch (by arrival time: a frame handler lagging on a loaded machine writes a frame that arrived
     before the switch after the state line)."""
     states = fsm_states(ev)
     first_1000 = next(i for i, fsm in states if fsm == USER_CTRL_FSM_ID)
-    user = [(i, e) for i, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP]
+    user = [(i, e) for i, e in frames_on(ev, "user_lowcmd") if abs(e["kp_max"] - user_kp) < 1e-3]
     assert user, "no user frame reached the robot"
     early = [e for i, e in user if i < first_1000]
     assert not early, f"{len(early)} user frames before fsm 1000 was on the record"

@@ -1,0 +1,100 @@
+"""The policy's ROS side: ~/policy/load (LoadPolicy), ~/policy/shadow, ~/policy/engage, ~/policy/disengage,
+~/policy/hold and ~/policy/unload (std_srvs/Trigger) on the services' side node; ~/policy/status (PolicyStatus) at
+every change of phase and at 2 Hz, and ~/policy/targets (sensor_msgs/JointState: the targets of the latest tick,
+beside the measured joints of joint_states) while the loop ticks."""
+
+from __future__ import annotations
+
+from g1_mode_manager_msgs.msg import PolicyStatus
+from g1_mode_manager_msgs.srv import LoadPolicy
+from rclpy.callback_groups import CallbackGroup
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+from g1_mode_manager.node.side_node import SideNode
+from g1_mode_manager.protocol.motors import JOINT_NAMES
+from g1_mode_manager.relay.periodic import PeriodicWorker
+from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyRunner
+
+#: ~/policy/targets and the status' change check, Hz (the policy ticks at 50: every second tick is shown).
+PUBLISH_RATE_HZ = 25.0
+#: ~/policy/status at least this often, s.
+STATUS_PERIOD_S = 0.5
+
+
+class PolicyEndpoints:
+    def __init__(self, main: Node, side: SideNode, group: CallbackGroup, runner: PolicyRunner, default: str,
+                 on_error: object) -> None:
+        self._log = main.get_logger()
+        self._runner = runner
+        self._default = default
+        self._clock = main.get_clock()
+        node = side.node
+        node.create_service(LoadPolicy, side.name_under_main("policy/load"), self._on_load, callback_group=group)
+        for name, verb in (("shadow", runner.start_shadow), ("engage", runner.engage),
+                           ("disengage", runner.disengage), ("hold", lambda: runner.disengage(DisengageTo.HOLD)),
+                           ("unload", runner.unload)):
+            node.create_service(Trigger, side.name_under_main(f"policy/{name}"), self._trigger(name, verb),
+                                callback_group=group)
+        self._status_pub = main.create_publisher(PolicyStatus, "~/policy/status", 10)
+        self._targets_pub = main.create_publisher(JointState, "~/policy/targets", 10)
+        self._published: tuple[str, str] | None = None
+        self._status_at = float("-inf")
+        self._targets_at = float("-inf")
+        self._worker = PeriodicWorker("policy_publisher", PUBLISH_RATE_HZ, self._publish, on_error)  # type: ignore[arg-type]
+
+    def start(self) -> None:
+        self._worker.start()
+
+    def stop(self) -> None:
+        self._worker.stop()
+
+    def _on_load(self, request: LoadPolicy.Request, response: LoadPolicy.Response) -> LoadPolicy.Response:
+        policy = request.policy.strip() or self._default
+        response.success, response.message = self._runner.load(policy)
+        self._answered("load", response.success, response.message)
+        return response
+
+    def _trigger(self, name: str, verb: object):
+        def callback(_request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+            response.success, response.message = verb()  # type: ignore[operator]
+            self._answered(name, response.success, response.message)
+            return response
+        return callback
+
+    def _answered(self, verb: str, success: bool, message: str) -> None:
+        (self._log.info if success else self._log.warn)(f"policy/{verb}: {message}")
+        self._publish()
+
+    def _publish(self, _dt_s: float = 0.0) -> None:
+        r = self._runner
+        controller = r.controller
+        now_ns = self._clock.now().nanoseconds
+        key = ("" if controller is None else controller.name, r.phase.value)
+        now = now_ns * 1e-9
+        if key != self._published or now - self._status_at >= STATUS_PERIOD_S:
+            self._published, self._status_at = key, now
+            self._status_pub.publish(self._status(key, now_ns))
+        shadow = r.shadow
+        if r.ticking() and shadow.at > self._targets_at:
+            self._targets_at = shadow.at
+            msg = JointState(name=list(JOINT_NAMES), position=shadow.targets.tolist())
+            msg.header.stamp = self._clock.now().to_msg()
+            self._targets_pub.publish(msg)
+
+    def _status(self, key: tuple[str, str], now_ns: int) -> PolicyStatus:
+        r, stats = self._runner, self._runner.stats
+        msg = PolicyStatus(policy=key[0], phase=key[1], ticks=stats.ticks, overruns=stats.overruns,
+                           skipped=stats.skipped, last_fault=r.last_fault)
+        msg.stamp.sec, msg.stamp.nanosec = divmod(now_ns, 1_000_000_000)
+        ticking = r.ticking()
+        msg.rate_hz = stats.rate_hz() if ticking else 0.0
+        msg.inference_p99_ms = stats.p99(stats.inference_s) * 1e3
+        msg.tick_p99_ms = stats.p99(stats.tick_s) * 1e3
+        msg.blend = r.blend_progress()
+        progress = None if r.controller is None else r.controller.progress()
+        msg.progress = -1.0 if progress is None else progress
+        shadow = r.shadow
+        msg.max_target_error_rad = float(abs(shadow.targets - shadow.measured).max()) if ticking else 0.0
+        return msg

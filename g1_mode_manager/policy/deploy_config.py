@@ -1,0 +1,158 @@
+"""A policy's deploy config: what turns the robot's state into the model's input and its output into targets.
+
+Read from a small YAML file (``configs/<name>.yaml``, or a user's own file) and from the model's ONNX metadata
+where the model carries it (holosoma exports ``kp``, ``kd``, ``dof_names`` and ``command_ranges``); the YAML wins
+where both say something, so a model without metadata is deployed by its YAML alone. Every field is checked
+here, with an error that names it: a policy that cannot be described is refused at load, never at the first tick.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from g1_mode_manager.core.controller.interface import ControllerError
+from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
+from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
+
+KINDS = ("locomotion", "motion_tracking")
+
+
+@dataclass(frozen=True)
+class ObservationSpec:
+    input: str
+    terms: tuple[str, ...]
+    scales: dict[str, float]
+
+
+@dataclass(frozen=True)
+class DeployConfig:
+    name: str
+    kind: str
+    model: Path
+    rate_hz: float
+    action_scale: float
+    action_clip: float
+    default_pose: np.ndarray  # (29,) rad, motor order
+    kp: np.ndarray  # (29,) N m/rad
+    kd: np.ndarray  # (29,) N m s/rad
+    observation: ObservationSpec
+    gait_period_s: float = 1.0
+    command_ranges: tuple[tuple[float, float], ...] = ((-1.0, 1.0), (-1.0, 1.0), (-1.0, 1.0))  # vx, vy, wz
+
+
+def builtin_configs() -> dict[str, Path]:
+    """The policies that ship with the package, by name (the YAML file's stem)."""
+    folder = resources.files("g1_mode_manager.policy") / "configs"
+    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".yaml")}
+
+
+def config_path(policy: str) -> Path:
+    """``policy`` is a built-in name or a path to a YAML file."""
+    builtin = builtin_configs()
+    if policy in builtin:
+        return builtin[policy]
+    path = Path(policy).expanduser()
+    if path.suffix in (".yaml", ".yml") and path.is_file():
+        return path
+    raise ControllerError(f"no policy {policy!r}: give one of {', '.join(sorted(builtin))} or a deploy config's "
+                          "path (.yaml)")
+
+
+def read_config(policy: str) -> tuple[str, dict[str, Any]]:
+    """(name, the YAML's fields) of ``policy``, a built-in name or a deploy config's path."""
+    path = config_path(policy)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        raise ControllerError(f"deploy config {path}: {exc}") from exc
+    if not isinstance(raw, dict):
+        raise ControllerError(f"deploy config {path}: not a mapping")
+    return path.stem, raw
+
+
+def resolve_model(name: str, raw: dict[str, Any], model_dir: Path) -> Path:
+    """The ONNX file its ``model`` field names, relative to ``model_dir`` (an absolute path as it is)."""
+    model = raw.get("model")
+    if not isinstance(model, str) or not model:
+        raise ControllerError(f"policy {name}: 'model' must name the ONNX file")
+    found = Path(model).expanduser() if Path(model).expanduser().is_absolute() else model_dir / model
+    if not found.is_file():
+        raise ControllerError(f"policy {name}: model {found} not found (policy_dir: {model_dir})")
+    return found
+
+
+def parse_deploy_config(raw: dict[str, Any], *, name: str, model: Path, metadata: dict[str, str]) -> DeployConfig:
+    def field(key: str, default: Any = None) -> Any:
+        if key in raw:
+            return raw[key]
+        if key in metadata:
+            return json.loads(metadata[key])
+        if default is None:
+            raise ControllerError(f"policy {name}: '{key}' is missing (neither in its YAML nor in the model)")
+        return default
+
+    kind = field("kind")
+    if kind not in KINDS:
+        raise ControllerError(f"policy {name}: kind {kind!r} is not one of {', '.join(KINDS)}")
+    names = tuple(field("dof_names", list(JOINT_NAMES)))
+    if names != JOINT_NAMES:
+        raise ControllerError(f"policy {name}: its joints are not the G1's 29 in motor order: {list(names)}")
+    obs = field("observation")
+    if not isinstance(obs, dict) or not obs.get("terms") or not obs.get("input"):
+        raise ControllerError(f"policy {name}: 'observation' needs 'input' and 'terms'")
+    rate_hz = _positive(name, "rate_hz", field("rate_hz"))
+    pose = _joint_vector(name, "default_pose", field("default_pose"))
+    for i, (q, (low, high)) in enumerate(zip(pose, JOINT_RANGE_RAD, strict=True)):
+        if not low <= q <= high:
+            raise ControllerError(f"policy {name}: default_pose of {JOINT_NAMES[i]} ({q}) is outside its range")
+    kp, kd = _joint_vector(name, "kp", field("kp")), _joint_vector(name, "kd", field("kd"))
+    for gains, key, high in ((kp, "kp", MAX_KP), (kd, "kd", MAX_KD)):
+        if np.any(gains < 0.0) or np.any(gains > high):
+            raise ControllerError(f"policy {name}: {key} must lie within [0, {high}] for every joint")
+    return DeployConfig(
+        name=name, kind=kind, model=model, rate_hz=rate_hz,
+        action_scale=_positive(name, "action_scale", field("action_scale")),
+        action_clip=_positive(name, "action_clip", field("action_clip", 100.0)),
+        default_pose=pose, kp=kp, kd=kd,
+        observation=ObservationSpec(str(obs["input"]), tuple(map(str, obs["terms"])),
+                                    {str(k): float(v) for k, v in (obs.get("scales") or {}).items()}),
+        gait_period_s=_positive(name, "gait_period_s", field("gait_period_s", 1.0)),
+        command_ranges=_command_ranges(name, field("command_ranges", "none")),
+    )
+
+
+def _positive(name: str, key: str, value: Any) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ControllerError(f"policy {name}: {key} must be a number, got {value!r}") from None
+    if not np.isfinite(x) or x <= 0.0:
+        raise ControllerError(f"policy {name}: {key} must be > 0, got {value!r}")
+    return x
+
+
+def _joint_vector(name: str, key: str, value: Any) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ControllerError(f"policy {name}: {key} must be {NUM_JOINTS} numbers") from None
+    if v.shape != (NUM_JOINTS,) or not np.all(np.isfinite(v)):
+        raise ControllerError(f"policy {name}: {key} must be {NUM_JOINTS} finite numbers, got shape {v.shape}")
+    return v
+
+
+def _command_ranges(name: str, value: Any) -> tuple[tuple[float, float], ...]:
+    """holosoma's ``command_ranges`` (lin_vel_x, lin_vel_y, ang_vel_yaw); none for a policy without a command."""
+    if value in (None, "none"):
+        return ((0.0, 0.0),) * 3
+    try:
+        return tuple((float(value[k][0]), float(value[k][1])) for k in ("lin_vel_x", "lin_vel_y", "ang_vel_yaw"))
+    except (KeyError, TypeError, IndexError, ValueError):
+        raise ControllerError(f"policy {name}: command_ranges needs lin_vel_x, lin_vel_y and ang_vel_yaw") from None

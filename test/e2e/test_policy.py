@@ -1,0 +1,124 @@
+"""A learned policy run inside the node's own loop, the real node against the real sim, judged on the sim's truth
+and record: loaded, shadowed, engaged by user control, driven by the teleop, disengaged standing."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+from g1_mode_manager_msgs.msg import PolicyStatus
+from g1_mode_manager_msgs.srv import LoadPolicy
+from std_srvs.srv import Trigger
+
+from e2e.user_ctrl_session import (
+    STANDING_Z_M,
+    USER_CTRL,
+    enter_walking,
+    frames_on,
+    fsm_states,
+    internal_ctrl,
+    lowest_pelvis,
+    no_user_frame_before_1000,
+    wait_sim,
+)
+from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, InternalCtrl
+from support.mode_manager import wait_until
+from support.timing import RECORD_WAIT_S
+
+pytestmark = pytest.mark.e2e
+
+#: The largest kp of holosoma's G1 policies (their ONNX metadata): what tells the policy's frames on the record from
+#: the hand-over frame's (user_ctrl_hold_kp) and damping (kp 0).
+POLICY_KP_MAX = 99.098427777
+
+
+def policy_call(stack, verb: str, timeout_s: float = 30.0):
+    return stack.ros.call(Trigger, stack.name(f"policy/{verb}"), Trigger.Request(), timeout_s)
+
+
+def load(stack, policy: str = ""):
+    return stack.ros.call(LoadPolicy, stack.name("policy/load"), LoadPolicy.Request(policy=policy), 30.0)
+
+
+def statuses(stack) -> list[PolicyStatus]:
+    if not hasattr(stack, "_policy_statuses"):
+        stack._policy_statuses = []
+        stack.ros.node.create_subscription(PolicyStatus, stack.name("policy/status"), stack._policy_statuses.append,
+                                           10)
+    return stack._policy_statuses
+
+
+def yaw_of(quat_wxyz) -> float:
+    w, x, y, z = quat_wxyz
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def engage(stack, policy: str = "loco_ppo") -> None:
+    enter_walking(stack)
+    r = load(stack, policy)
+    assert r.success, r.message
+    r = policy_call(stack, "shadow")
+    assert r.success, r.message
+    wait_sim(stack, 3.0)
+    r = policy_call(stack, "engage")
+    print(f"engage: {r.message}")
+    assert r.success, r.message
+
+
+def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    seen = statuses(stack)
+    start = time.monotonic()
+    engage(stack)
+    wait_sim(stack, 2.5)  # the blend (2 s) and a moment standing under the policy alone
+    walked = stack.walk_forward(0.5, 2.0)
+    print(f"walked {walked:.2f} m under the policy")
+    assert walked >= 2.0, f"walked only {walked:.2f} m"
+    yaw0 = yaw_of(stack.sim.get()["base"]["quaternion"])
+    stack.drive_sim_time(0.0, 4.0, wz=1.0)
+    turned = math.degrees(yaw_of(stack.sim.get()["base"]["quaternion"]) - yaw0) % 360
+    print(f"turned {turned:.0f} degrees under the policy")
+    stack.drive_sim_time(0.0, 1.0)
+    r = policy_call(stack, "disengage")
+    print(f"disengage: {r.message}")
+    assert r.success, r.message
+    wait_sim(stack, 2.0)
+
+    ev = stack.record.events()
+    assert lowest_pelvis(ev, start) > STANDING_Z_M
+    no_user_frame_before_1000(ev, user_kp=POLICY_KP_MAX)
+    assert frames_on(ev, "lowcmd") == [], "a frame on rt/lowcmd"
+    fsms = [fsm for _, fsm in fsm_states(ev)]
+    assert fsms[-1] in STANDING_FSM_IDS, fsms
+    assert internal_ctrl(ev) == [InternalCtrl.WALKRUN]
+    assert turned >= 90, f"turned only {turned:.0f} degrees"
+    assert wait_until(lambda: any(s.phase == "running" for s in seen), 5.0)
+    running = [s for s in seen if s.phase == "running"]
+    print(f"policy loop: {running[-1].rate_hz:.1f} Hz, inference p99 {running[-1].inference_p99_ms:.2f} ms, "
+          f"tick p99 {running[-1].tick_p99_ms:.2f} ms, overruns {running[-1].overruns}")
+
+
+def test_an_estop_mid_walk_under_the_policy_damps_the_robot_and_ends_the_policys_frames(shared_stack_factory) -> None:
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    engage(stack)
+    wait_sim(stack, 2.5)
+    stack.drive_sim_time(0.4, 1.5)  # walking under the policy: the teleop's cmd_vel goes to the node's loop
+    t0 = time.monotonic()
+    r = stack.estop()
+    print(f"e-stop: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
+    assert r.success, r.message
+
+    def damping_since() -> list[dict]:
+        return [e for _, e in frames_on(stack.record.events(), "user_lowcmd") if e["t"] >= t0 and e["kp_max"] == 0.0]
+
+    assert wait_until(lambda: bool(damping_since()), RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after the e-stop"
+    assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
+    ev = stack.record.events()
+    first_damping = damping_since()[0]
+    print(f"first damping frame {(first_damping['t'] - t0) * 1000:.1f} ms after the e-stop call")
+    policy_after = [e for _, e in frames_on(ev, "user_lowcmd")
+                    if e["t"] > first_damping["t"] and abs(e["kp_max"] - POLICY_KP_MAX) < 1e-3]
+    assert not policy_after, f"{len(policy_after)} policy frames after the first damping frame"
+    assert stack.sim.get()["sport"]["fsm_id"] == 1 and not stack.sim.get()["user_ctrl"]
+    assert wait_until(lambda: statuses(stack) and statuses(stack)[-1].phase == "loaded", 5.0)
