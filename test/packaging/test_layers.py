@@ -77,7 +77,7 @@ def _is_ros_or_dds(module: str) -> bool:
     return _top(module) in ROS_AND_DDS or _top(module).startswith(("rosidl_", "rcl_", "rmw_"))
 
 
-PURE = ("core", "relay", "display")
+PURE = ("core", "relay", "display", "policy")
 
 
 def test_core_relay_and_display_import_with_ros_and_dds_blocked() -> None:

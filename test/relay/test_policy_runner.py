@@ -1,0 +1,132 @@
+"""The policy loop against fakes of the robot port, the machine and the lowcmd relay: a fault inside the loop (an
+exception, a non-finite or out-of-range target, overruns, a stale sample) stops the policy, sends no bad frame and
+ends the stream at once; engage is refused on a shadow far from the measured pose."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from g1_mode_manager.core.controller.interface import Command, JointTargets, RobotState
+from g1_mode_manager.core.controller.phases import Phase
+from g1_mode_manager.core.events import RelayEvents
+from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.port import StateSample
+from g1_mode_manager.core.records import Outcome
+from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.protocol.body_fields import BodyFields
+from g1_mode_manager.protocol.motors import NUM_JOINTS
+from g1_mode_manager.relay.policy_runner import PolicyLimits, PolicyRunner
+
+POSE = np.full(NUM_JOINTS, 0.1)
+LIMITS = VelocityLimits(0.8, 0.4, 1.0, 1.5, 1.0, 3.0)
+NO_BLEND = PolicyLimits(blend_s=0.0)
+
+
+class Port:
+    def __init__(self) -> None:
+        self.age_s = 0.002
+
+    def state_sample(self) -> StateSample:
+        fields = BodyFields((1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0,) * NUM_JOINTS, (30,) * NUM_JOINTS,
+                            (30,) * NUM_JOINTS, bytes(40), tuple(POSE))
+        return StateSample(fields, self.age_s, False)
+
+
+@dataclass
+class Machine:
+    requested: list[Mode] = field(default_factory=list)
+
+    def request(self, target: Mode) -> Outcome:
+        self.requested.append(target)
+        return Outcome(True, target, "ok", 0.1, False)
+
+
+@dataclass
+class Relay:
+    frames: list = field(default_factory=list)
+    ended: int = 0
+
+    def submit_frame(self, frame) -> None:
+        self.frames.append(frame)
+
+    def end_stream(self) -> None:
+        self.ended += 1
+
+
+class Controller:
+    name, rate_hz = "fake", 50.0
+
+    def __init__(self, q: float | None = 0.1, raises: bool = False) -> None:
+        self.q, self.raises = q, raises
+
+    def activate(self, state: RobotState | None) -> None: ...
+    def deactivate(self) -> None: ...
+    def progress(self) -> None: ...
+
+    def step(self, state: RobotState, command: Command) -> JointTargets:
+        if self.raises:
+            raise RuntimeError("a policy bug")
+        z = np.zeros(NUM_JOINTS)
+        return JointTargets(np.full(NUM_JOINTS, self.q), z, z, np.full(NUM_JOINTS, 40.0), np.full(NUM_JOINTS, 1.0))
+
+
+def running(controller: Controller, limits: PolicyLimits = NO_BLEND):
+    port, machine, relay = Port(), Machine(), Relay()
+    runner = PolicyRunner(port, machine, relay, RelayEvents(lambda *_: None), loader=lambda _: controller,
+                          limits=limits, velocity_limits=LIMITS, cmd_vel_timeout_s=0.5,
+                          hold_gains=(300.0, 8.0))
+    assert runner.load("fake")[0] and runner.start_shadow()[0]
+    runner.tick(0.02)
+    ok, why = runner.engage()
+    assert ok, why
+    runner.tick(0.02)
+    assert runner.phase is Phase.RUNNING and len(relay.frames) == 1
+    return runner, port, relay
+
+
+@pytest.mark.parametrize(("make_bad", "why"), [
+    (lambda c: setattr(c, "raises", True), "RuntimeError: a policy bug"),
+    (lambda c: setattr(c, "q", float("nan")), "non-finite"),
+    (lambda c: setattr(c, "q", 100.0), "outside its range"),
+])
+def test_a_bad_tick_stops_the_policy_sends_nothing_and_ends_the_stream(make_bad, why):
+    controller = Controller()
+    runner, _, relay = running(controller)
+    make_bad(controller)
+    runner.tick(0.02)
+    assert runner.phase is Phase.LOADED and why in runner.last_fault
+    assert len(relay.frames) == 1 and relay.ended == 1
+
+
+def test_a_stale_sample_while_sending_is_a_fault_and_in_the_shadow_only_skipped():
+    runner, port, relay = running(Controller())
+    port.age_s = 0.2
+    runner.tick(0.02)
+    assert runner.phase is Phase.LOADED and "ms old" in runner.last_fault and relay.ended == 1
+    assert runner.start_shadow()[0]
+    runner.tick(0.02)
+    assert runner.phase is Phase.SHADOW and runner.stats.skipped == 1
+
+
+def test_overruns_in_a_row_stop_the_policy():
+    runner, _, relay = running(Controller(), PolicyLimits(blend_s=0.0, overrun_s=1e-9, max_overruns=3))
+    runner.tick(0.02)
+    assert runner.phase is Phase.LOADED and "ticks in a row" in runner.last_fault
+    # the shadow's tick, the first engaged one and this one overran: the third stops the policy after its frame (a
+    # checked one: an overrun is late, not wrong)
+    assert len(relay.frames) == 2 and relay.ended == 1 and runner.stats.overruns == 3
+
+
+def test_engage_is_refused_while_the_shadow_is_far_from_the_measured_pose():
+    controller = Controller(q=1.0)
+    runner = PolicyRunner(Port(), Machine(), Relay(), RelayEvents(lambda *_: None), loader=lambda _: controller,
+                          limits=PolicyLimits(), velocity_limits=LIMITS, cmd_vel_timeout_s=0.5,
+                          hold_gains=(300.0, 8.0))
+    runner.load("fake")
+    runner.start_shadow()
+    runner.tick(0.02)
+    ok, why = runner.engage()
+    assert not ok and "from the measured pose" in why and runner.phase is Phase.SHADOW
