@@ -52,6 +52,7 @@ _SLOWEST_FIRST = (
     "test/e2e/test_drivers.py",
     "test/e2e/test_getup.py",
     "test/e2e/test_body.py",
+    "test/e2e/test_policy.py",
     "test/e2e/test_console_browser.py",
     "test/e2e/test_user_ctrl_estop_steps.py",
     "test/sim/test_bridge.py",

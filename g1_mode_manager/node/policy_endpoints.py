@@ -1,7 +1,7 @@
 """The policy's ROS side: ~/policy/load (LoadPolicy), ~/policy/shadow, ~/policy/engage, ~/policy/disengage,
 ~/policy/hold and ~/policy/unload (std_srvs/Trigger) on the services' side node; ~/policy/status (PolicyStatus) at
-every change of phase and at 2 Hz, and ~/policy/targets (sensor_msgs/JointState: the targets of the latest tick,
-beside the measured joints of joint_states) while the loop ticks."""
+every change of phase and at 2 Hz while the loop ticks, and ~/policy/targets (sensor_msgs/JointState: the targets
+of the latest tick, beside the measured joints of joint_states) while the loop ticks."""
 
 from __future__ import annotations
 
@@ -16,10 +16,11 @@ from g1_mode_manager.node.side_node import SideNode
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from g1_mode_manager.relay.periodic import PeriodicWorker
 from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyRunner
+from g1_mode_manager.topic_qos import MODE_QOS
 
 #: ~/policy/targets and the status' change check, Hz (the policy ticks at 50: every second tick is shown).
 PUBLISH_RATE_HZ = 25.0
-#: ~/policy/status at least this often, s.
+#: ~/policy/status at least this often while the loop ticks, s.
 STATUS_PERIOD_S = 0.5
 
 
@@ -37,12 +38,16 @@ class PolicyEndpoints:
                            ("unload", runner.unload)):
             node.create_service(Trigger, side.name_under_main(f"policy/{name}"), self._trigger(name, verb),
                                 callback_group=group)
-        self._status_pub = main.create_publisher(PolicyStatus, "~/policy/status", 10)
+        self._status_pub = main.create_publisher(PolicyStatus, "~/policy/status", MODE_QOS)  # latched, as ~/mode
         self._targets_pub = main.create_publisher(JointState, "~/policy/targets", 10)
         self._published: tuple[str, str] | None = None
         self._status_at = float("-inf")
         self._targets_at = float("-inf")
-        self._worker = PeriodicWorker("policy_publisher", PUBLISH_RATE_HZ, self._publish, on_error)  # type: ignore[arg-type]
+        # asleep while the loop does not tick (every node has one; few run a policy): a verb's answer and a change
+        # of phase wake it
+        self._worker = PeriodicWorker("policy_publisher", PUBLISH_RATE_HZ, self._publish, on_error,  # type: ignore[arg-type]
+                                      busy=self._due)
+        runner.on_phase_change = self._worker.wake
 
     def start(self) -> None:
         self._worker.start()
@@ -66,6 +71,12 @@ class PolicyEndpoints:
     def _answered(self, verb: str, success: bool, message: str) -> None:
         (self._log.info if success else self._log.warn)(f"policy/{verb}: {message}")
         self._publish()
+        self._worker.wake()  # the loop may tick now: its status and targets are due
+
+    def _due(self) -> bool:
+        controller = self._runner.controller
+        return self._runner.ticking() or self._published != ("" if controller is None else controller.name,
+                                                             self._runner.phase.value)
 
     def _publish(self, _dt_s: float = 0.0) -> None:
         r = self._runner
@@ -73,7 +84,7 @@ class PolicyEndpoints:
         now_ns = self._clock.now().nanoseconds
         key = ("" if controller is None else controller.name, r.phase.value)
         now = now_ns * 1e-9
-        if key != self._published or now - self._status_at >= STATUS_PERIOD_S:
+        if key != self._published or (r.ticking() and now - self._status_at >= STATUS_PERIOD_S):
             self._published, self._status_at = key, now
             self._status_pub.publish(self._status(key, now_ns))
         shadow = r.shadow

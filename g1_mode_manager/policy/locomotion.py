@@ -55,6 +55,9 @@ class LocomotionController:
     def progress(self) -> float | None:
         return None
 
+    def ready(self) -> None:
+        return None
+
     def _advance_phase(self, command: np.ndarray) -> None:
         self.phase = np.fmod(self.phase + self._phase_dt + np.pi, 2 * np.pi) - np.pi
         if np.linalg.norm(command) < STAND_COMMAND_NORM:

@@ -283,6 +283,13 @@ class MotionTrackingController:
     def progress(self) -> float:
         return self._step / self.motion_steps
 
+    def ready(self) -> JointTargets:
+        """The clip's first frame, held with the policy's gains: holosoma blends to it before the clip starts
+        (``get_init_target``), since the first frame may be far from any standing pose (arms raised)."""
+        c = self._config
+        first = self._run(self._zero_obs, 0)[1]
+        return JointTargets(q=first, dq=self._zeros, tau=self._zeros, kp=c.kp, kd=c.kd)
+
     def step(self, state: RobotState, command: Command) -> JointTargets:
         """One tick at the clip's current time step, then the clock advances (held at the last frame)."""
         if not self._active:

@@ -82,11 +82,13 @@ class PolicyRunner:
         self.controller: Controller | None = None
         self._blend: Blend | None = None
         self._blend_at = 0.0
+        self._ready: JointTargets | None = None  # a tracking policy's first frame, blended to before it starts
         self._hold: JointFrame | None = None
         self.shadow = Shadow()
         self.stats = TickStats()
         self.last_fault = ""
         self.wake: Callable[[], None] = lambda: None  # the loop's worker looks now (set by whoever builds it)
+        self.on_phase_change: Callable[[], None] = lambda: None  # e.g. publish the status (not under the lock)
 
     # --- what the node asks -------------------------------------------------------------------------
     def ticking(self) -> bool:
@@ -155,6 +157,13 @@ class PolicyRunner:
                 return False, why
             if (why := self._shadow_disagrees()) is not None:
                 return False, f"engage refused: {why}; nothing sent"
+            assert self.controller is not None
+            try:
+                ready = self.controller.ready()
+                if ready is not None:
+                    frame_of(ready)
+            except ControllerError as exc:
+                return False, f"engage refused: the policy's first frame: {exc}; nothing sent"
             with self._lock:
                 self.phase = Phase.ENGAGING
             outcome = self._machine.request(Mode.LOW_LEVEL)
@@ -169,7 +178,9 @@ class PolicyRunner:
                     fail = "no fresh state sample after the entry"
                 else:
                     assert self.controller is not None
-                    self.controller.activate(state)
+                    self._ready = self.controller.ready()
+                    if self._ready is None:  # else activated at the end of the blend, on its first frame
+                        self.controller.activate(state)
                     self._blend, self._blend_at = Blend(state.q, self.limits.blend_s), self._clock()
                     self.velocity.forget()
                     self.velocity.limiter.reset()
@@ -220,6 +231,7 @@ class PolicyRunner:
             self._deactivate()
         self._events.log("info", "policy_left", f"LOW_LEVEL left for {target.name} while the policy was "
                          f"{was.value}: the policy stopped (loaded)")
+        self.on_phase_change()
 
     # --- the loop --------------------------------------------------------------------------------------
     def tick(self, dt_s: float) -> None:
@@ -239,10 +251,13 @@ class PolicyRunner:
             assert sample is not None
             state = _state_of(sample)
             try:
-                targets = controller.step(state, self._command(dt_s))
+                # a hold, and the blend to a tracking policy's first frame, ask nothing of the policy
+                asks = phase is not Phase.HOLDING and not (phase is Phase.BLENDING and self._ready is not None)
+                targets = controller.step(state, self._command(dt_s)) if asks else None
                 inferred = time.perf_counter()
-                self.shadow = Shadow(targets.q.copy(), state.q.copy(), self._clock())
-                frame = None if phase not in SENDING else self._frame(phase, targets)
+                frame = None if phase not in SENDING else self._frame(phase, targets, state)
+                shown = targets.q if targets is not None else np.asarray(frame.q if frame else state.q)
+                self.shadow = Shadow(shown.copy(), state.q.copy(), self._clock())
             except Exception as exc:  # a policy's bug is a fault of the loop, never of the node
                 self._fault(f"the policy failed: {type(exc).__name__}: {exc}")
                 return
@@ -256,14 +271,22 @@ class PolicyRunner:
                 if self.phase in TICKING:
                     self._fault(f"{self.stats.overruns_in_a_row} ticks in a row over {self.limits.overrun_s * 1e3:g} ms")
 
-    def _frame(self, phase: Phase, targets: JointTargets) -> JointFrame:
+    def _frame(self, phase: Phase, targets: JointTargets | None, state: RobotState) -> JointFrame:
+        """Under the lock: the frame of a sending tick (the hold, the blend, or the policy's targets)."""
         if phase is Phase.HOLDING and self._hold is not None:
             return self._hold
         if phase is Phase.BLENDING and self._blend is not None:
             elapsed = self._clock() - self._blend_at
-            targets = self._blend.apply(targets, elapsed)
+            toward = self._ready if self._ready is not None else targets
+            assert toward is not None
+            blended = self._blend.apply(toward, elapsed)
             if self._blend.weight(elapsed) >= 1.0:
                 self.phase = Phase.RUNNING
+                if self._ready is not None and self.controller is not None:  # at the first frame: the clip starts
+                    self.controller.activate(state)
+                    self._ready = None
+            return frame_of(blended)
+        assert targets is not None
         return frame_of(targets)
 
     def blend_progress(self) -> float:
@@ -288,11 +311,12 @@ class PolicyRunner:
                          + ("; the robot is held and handed back" if was in SENDING else "; nothing was sent"))
         if was in SENDING:
             self._lowcmd.end_stream()
+        self.on_phase_change()  # a wake only: nothing that waits for this lock
 
     def _deactivate(self) -> None:
         if self.controller is not None:
             self.controller.deactivate()
-        self._blend = self._hold = None
+        self._blend = self._hold = self._ready = None
         self.velocity.forget()
 
     def _state_or_none(self) -> RobotState | None:
@@ -300,10 +324,13 @@ class PolicyRunner:
         return None if _stale(sample, self.limits.state_timeout_s) else _state_of(sample)  # type: ignore[arg-type]
 
     def _shadow_disagrees(self) -> str | None:
-        """The shadow's latest targets must be fresh and near the measured pose of their sample."""
+        """The shadow's latest targets must be fresh and near the measured pose of their sample; a tracking
+        policy's are not compared (the engage blends the robot to its first frame before it starts)."""
         shadow = self.shadow
         if self._clock() - shadow.at > max(0.1, 5 * self.period_s()):
             return "the shadow has no fresh targets (is rt/lowstate received?)"
+        if self.controller is not None and self.controller.ready() is not None:
+            return None
         error = np.abs(shadow.targets - shadow.measured)
         worst = int(np.argmax(error))
         if error[worst] > self.limits.engage_max_error_rad:

@@ -23,6 +23,7 @@ from e2e.user_ctrl_session import (
     wait_sim,
 )
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, InternalCtrl
+from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.timing import RECORD_WAIT_S
 
@@ -45,7 +46,7 @@ def statuses(stack) -> list[PolicyStatus]:
     if not hasattr(stack, "_policy_statuses"):
         stack._policy_statuses = []
         stack.ros.node.create_subscription(PolicyStatus, stack.name("policy/status"), stack._policy_statuses.append,
-                                           10)
+                                           MODE_QOS)
     return stack._policy_statuses
 
 
