@@ -108,4 +108,5 @@ class PolicyEndpoints:
         msg.progress = -1.0 if progress is None else progress
         shadow = r.shadow
         msg.max_target_error_rad = float(abs(shadow.targets - shadow.measured).max()) if ticking else 0.0
+        msg.tracking_error_rad = -1.0 if shadow.tracking_error_rad is None else shadow.tracking_error_rad
         return msg

@@ -44,6 +44,10 @@ class DeployConfig:
     kd: np.ndarray  # (29,) N m s/rad
     observation: ObservationSpec
     gait_period_s: float = 1.0
+    #: the gains that hold the pose a tracking policy starts from while the engage blends there (holosoma's
+    #: stiff_startup_kp / kd); the policy's own where the config gives none
+    ready_kp: np.ndarray | None = None
+    ready_kd: np.ndarray | None = None
     command_ranges: tuple[tuple[float, float], ...] = ((-1.0, 1.0), (-1.0, 1.0), (-1.0, 1.0))  # vx, vy, wz
 
 
@@ -113,14 +117,17 @@ def parse_deploy_config(raw: dict[str, Any], *, name: str, model: Path, metadata
         if not low <= q <= high:
             raise ControllerError(f"policy {name}: default_pose of {JOINT_NAMES[i]} ({q}) is outside its range")
     kp, kd = _joint_vector(name, "kp", field("kp")), _joint_vector(name, "kd", field("kd"))
-    for gains, key, high in ((kp, "kp", MAX_KP), (kd, "kd", MAX_KD)):
+    ready_kp = _joint_vector(name, "ready_kp", raw["ready_kp"]) if "ready_kp" in raw else kp
+    ready_kd = _joint_vector(name, "ready_kd", raw["ready_kd"]) if "ready_kd" in raw else kd
+    for gains, key, high in ((kp, "kp", MAX_KP), (kd, "kd", MAX_KD), (ready_kp, "ready_kp", MAX_KP),
+                             (ready_kd, "ready_kd", MAX_KD)):
         if np.any(gains < 0.0) or np.any(gains > high):
             raise ControllerError(f"policy {name}: {key} must lie within [0, {high}] for every joint")
     return DeployConfig(
         name=name, kind=kind, model=model, rate_hz=rate_hz,
         action_scale=_positive(name, "action_scale", field("action_scale")),
         action_clip=_positive(name, "action_clip", field("action_clip", 100.0)),
-        default_pose=pose, kp=kp, kd=kd,
+        default_pose=pose, kp=kp, kd=kd, ready_kp=ready_kp, ready_kd=ready_kd,
         observation=ObservationSpec(str(obs["input"]), tuple(map(str, obs["terms"])),
                                     {str(k): float(v) for k, v in (obs.get("scales") or {}).items()}),
         gait_period_s=_positive(name, "gait_period_s", field("gait_period_s", 1.0)),

@@ -58,6 +58,9 @@ class LocomotionController:
     def ready(self) -> None:
         return None
 
+    def reference(self) -> None:
+        return None
+
     def _advance_phase(self, command: np.ndarray) -> None:
         self.phase = np.fmod(self.phase + self._phase_dt + np.pi, 2 * np.pi) - np.pi
         if np.linalg.norm(command) < STAND_COMMAND_NORM:

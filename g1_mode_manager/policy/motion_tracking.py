@@ -283,12 +283,18 @@ class MotionTrackingController:
     def progress(self) -> float:
         return self._step / self.motion_steps
 
+    def reference(self) -> np.ndarray:
+        return self.reference_q
+
     def ready(self) -> JointTargets:
-        """The clip's first frame, held with the policy's gains: holosoma blends to it before the clip starts
-        (``get_init_target``), since the first frame may be far from any standing pose (arms raised)."""
+        """The clip's first frame, held with the config's ready gains: holosoma blends to it under its stiff
+        startup gains before the clip starts (``get_init_target``, ``stiff_startup_kp``), since the first frame may
+        be far from any standing pose (arms raised) and the policy's own gains do not hold a pose without it."""
         c = self._config
         first = self._run(self._zero_obs, 0)[1]
-        return JointTargets(q=first, dq=self._zeros, tau=self._zeros, kp=c.kp, kd=c.kd)
+        kp = c.kp if c.ready_kp is None else c.ready_kp
+        kd = c.kd if c.ready_kd is None else c.ready_kd
+        return JointTargets(q=first, dq=self._zeros, tau=self._zeros, kp=kp, kd=kd)
 
     def step(self, state: RobotState, command: Command) -> JointTargets:
         """One tick at the clip's current time step, then the clock advances (held at the last frame)."""

@@ -60,6 +60,8 @@ class Shadow:
     targets: np.ndarray = field(default_factory=lambda: np.zeros(len(JOINT_NAMES)))
     measured: np.ndarray = field(default_factory=lambda: np.zeros(len(JOINT_NAMES)))
     at: float = float("-inf")
+    #: RMS over the joints of measured - the motion's reference, rad (None: the policy follows no reference)
+    tracking_error_rad: float | None = None
 
 
 class PolicyRunner:
@@ -257,7 +259,9 @@ class PolicyRunner:
                 inferred = time.perf_counter()
                 frame = None if phase not in SENDING else self._frame(phase, targets, state)
                 shown = targets.q if targets is not None else np.asarray(frame.q if frame else state.q)
-                self.shadow = Shadow(shown.copy(), state.q.copy(), self._clock())
+                reference = controller.reference() if phase is Phase.RUNNING else None
+                tracking = None if reference is None else float(np.sqrt(np.mean((state.q - reference) ** 2)))
+                self.shadow = Shadow(shown.copy(), state.q.copy(), self._clock(), tracking)
             except Exception as exc:  # a policy's bug is a fault of the loop, never of the node
                 self._fault(f"the policy failed: {type(exc).__name__}: {exc}")
                 return

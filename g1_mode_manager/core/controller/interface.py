@@ -80,6 +80,10 @@ class Controller(Protocol):
     def progress(self) -> float | None:
         """How far a finite motion has played, 0..1 (None for a controller that runs until stopped)."""
 
+    def reference(self) -> np.ndarray | None:
+        """The joint positions a tracking policy is following at this tick (its motion's frame), to judge how well
+        the robot tracks it; None for a policy without a reference."""
+
     def ready(self) -> JointTargets | None:
         """Where the robot must be before the first step, with the gains to hold it there (a tracking policy's
         first frame: the engage blends to it, then activates); None: the blend goes to the first steps' targets."""
