@@ -169,6 +169,12 @@ RANGES: dict[str, tuple[float, float]] = {
 }
 
 
+#: Integer ranges other than the default (0, 10).
+INT_RANGES: dict[str, tuple[int, int]] = {
+    "policy_max_overruns": (1, 100),  # 0 would stop every policy at its first tick
+}
+
+
 def descriptor(name: str, default: object) -> ParameterDescriptor:
     desc = ParameterDescriptor(description=DESCRIPTIONS[name], read_only=True)
     if isinstance(default, bool | str):
@@ -179,5 +185,6 @@ def descriptor(name: str, default: object) -> ParameterDescriptor:
     elif name == "dds_domain":
         desc.integer_range = [IntegerRange(from_value=0, to_value=230, step=1)]
     elif isinstance(default, int):
-        desc.integer_range = [IntegerRange(from_value=0, to_value=10, step=1)]
+        low, high = INT_RANGES.get(name, (0, 10))
+        desc.integer_range = [IntegerRange(from_value=low, to_value=high, step=1)]
     return desc

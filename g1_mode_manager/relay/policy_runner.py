@@ -237,6 +237,9 @@ class PolicyRunner:
 
     # --- the loop --------------------------------------------------------------------------------------
     def tick(self, dt_s: float) -> None:
+        """One tick. The policy steps outside the lock: a slow inference never holds up a verb or the machine's
+        leave listener (a FAULT's transition waits for its listeners); what it proposed is used only if the phase
+        did not change meanwhile."""
         started = time.perf_counter()
         with self._lock:
             phase, controller = self.phase, self.controller
@@ -252,19 +255,29 @@ class PolicyRunner:
                 return
             assert sample is not None
             state = _state_of(sample)
+            # a hold, and the blend to a tracking policy's first frame, ask nothing of the policy
+            asks = phase is not Phase.HOLDING and not (phase is Phase.BLENDING and self._ready is not None)
+            command = self._command(dt_s) if asks else None
+        try:
+            targets = controller.step(state, command) if command is not None else None
+        except Exception as exc:  # a policy's bug is a fault of the loop, never of the node
+            with self._lock:
+                if self.phase is phase:
+                    self._fault(f"the policy failed: {type(exc).__name__}: {exc}")
+            return
+        inferred = time.perf_counter()
+        with self._lock:
+            if self.phase is not phase or self.controller is not controller:
+                return  # left LOW_LEVEL, faulted or disengaged while the policy stepped
             try:
-                # a hold, and the blend to a tracking policy's first frame, ask nothing of the policy
-                asks = phase is not Phase.HOLDING and not (phase is Phase.BLENDING and self._ready is not None)
-                targets = controller.step(state, self._command(dt_s)) if asks else None
-                inferred = time.perf_counter()
                 frame = None if phase not in SENDING else self._frame(phase, targets, state)
-                shown = targets.q if targets is not None else np.asarray(frame.q if frame else state.q)
-                reference = controller.reference() if phase is Phase.RUNNING else None
-                tracking = None if reference is None else float(np.sqrt(np.mean((state.q - reference) ** 2)))
-                self.shadow = Shadow(shown.copy(), state.q.copy(), self._clock(), tracking)
-            except Exception as exc:  # a policy's bug is a fault of the loop, never of the node
-                self._fault(f"the policy failed: {type(exc).__name__}: {exc}")
+            except ControllerError as exc:
+                self._fault(str(exc))
                 return
+            shown = targets.q if targets is not None else np.asarray(frame.q if frame else state.q)
+            reference = controller.reference() if phase is Phase.RUNNING else None
+            tracking = None if reference is None else float(np.sqrt(np.mean((state.q - reference) ** 2)))
+            self.shadow = Shadow(shown.copy(), state.q.copy(), self._clock(), tracking)
         if frame is not None:
             why = self._lowcmd.submit_frame(frame)
             if why is not None:

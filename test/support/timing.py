@@ -99,3 +99,10 @@ HANDLED_WITHIN_S: Final = margin(1.0)
 #: How long the sim's record may lag behind an SDK call's timeout before the call is judged on it (the record is
 #: line-buffered and written by another process, a delayed answer by the sim's timer thread).
 RECORD_SETTLE_S: Final = margin(1.0)
+#: How long the node's policy loop may go without a fresh state sample or take for a tick in a test that is not
+#: about either (their parameters policy_state_timeout_s, policy_overrun_s): the loaded suite starves the sim's
+#: rt/lowstate and the node's loop for tens of ms, and the loop would rightly stop the policy.
+POLICY_STALL_S: Final = margin(0.5)
+#: The overrun test's tick bound (policy_overrun_s): above a loaded machine's ordinary policy ticks (p99 of 4-14 ms
+#: in the suite), short enough that three slow ticks in a row do not leave a walking robot to fall first.
+POLICY_OVERRUN_TEST_S: Final = margin(0.1)
