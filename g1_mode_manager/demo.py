@@ -3,8 +3,9 @@ yours to drive.
 
 Starts the MuJoCo sim bridge, the mode_manager node and the console (a web page) as three processes on
 loopback, walks the robot through HIGH_LEVEL -> Start -> cmd_vel -> LOW_LEVEL by user control -> handed back ->
-walking again -> E-STOP (``--release``: LOW_LEVEL by ReleaseMode, limp) while printing what happens, then
-keeps them running for the console's page and `g1ctl` in another terminal until Ctrl-C. The console is only a
+walking again -> walking under the locomotion policy in the node's own loop -> E-STOP (``--release``: LOW_LEVEL by
+ReleaseMode, limp) while printing what happens, then keeps them running for the console's page and `g1ctl` in
+another terminal until Ctrl-C. The console is only a
 client of the node: if it cannot start (its port taken), the rest runs on without it.
 """
 
@@ -98,7 +99,8 @@ class _ModePrinter:
 
 
 def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
-    """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, LOW_LEVEL (by user control, or ``release``), E-STOP.
+    """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, LOW_LEVEL (by user control, or ``release``), the
+    locomotion policy in the node's loop walked and disengaged (user control only), E-STOP.
     Returns True if all went as expected."""
     odom = _odom_xy(client)
     client.on_mode(_ModePrinter())
@@ -133,6 +135,7 @@ def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
         step("E-STOP from LOW_LEVEL (re-select service, then Damp)", r.success, r.message)
     else:
         _user_ctrl_and_back(client, step, odom)
+        _policy_walk(client, step, odom)
         r = client.estop()
         step("E-STOP (Damp verified)", r.success, r.message)
     r = client.set_mode("idle")
@@ -165,6 +168,27 @@ def _user_ctrl_and_back(client: ManagerClient, step, odom) -> None:
     start, moved = _drive(client, odom, 0.5, 3.0)
     if start and moved:
         step("walking again after user control", math.dist(start, moved) > 0.5, f"walked {math.dist(start, moved):.2f} m")
+
+
+def _policy_walk(client: ManagerClient, step, odom) -> None:
+    """The locomotion policy in the node's own loop: loaded, shadowed, engaged by user control, driven by cmd_vel,
+    disengaged back to the robot's own controller standing."""
+    time.sleep(2.5)  # the walk's StopMove and the robot at rest: the user-control entry waits for it
+    r = client.load_policy("loco_ppo")
+    step("policy load loco_ppo (checked, nothing sent)", r.success, r.message)
+    r = client.trigger("policy/shadow")
+    step("policy shadow (runs on the live state, nothing sent)", r.success, r.message)
+    time.sleep(3.0)
+    r = client.trigger("policy/engage", 30.0)
+    step("policy engage (user control, blend from the measured pose)", r.success, r.message)
+    time.sleep(2.5)  # the blend
+    start, moved = _drive(client, odom, 0.5, 4.0)
+    if start and moved:
+        step("cmd_vel 0.5 m/s for 4 s under the node's policy", math.dist(start, moved) > 1.0,
+             f"walked {math.dist(start, moved):.2f} m")
+    time.sleep(1.0)
+    r = client.trigger("policy/disengage", 30.0)
+    step("policy disengage (the robot's own controller takes it back standing)", r.success, r.message)
 
 
 def _start_console(py: str, port: int, children: list[Child]) -> str | None:

@@ -8,7 +8,7 @@ import time
 
 import rclpy
 from g1_mode_manager_msgs.msg import Mode, SportModeState
-from g1_mode_manager_msgs.srv import LocoCommand, SetMode
+from g1_mode_manager_msgs.srv import LoadPolicy, LocoCommand, SetMode
 from geometry_msgs.msg import Twist
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -120,6 +120,9 @@ class ManagerClient:
     def trigger(self, name: str, timeout_s: float = 10.0) -> Trigger.Response:
         """Call one of the manager's Trigger services, e.g. hand_over_to_autonomy, take_over, clear_fault."""
         return self._call(Trigger, name, Trigger.Request(), timeout_s)
+
+    def load_policy(self, policy: str, timeout_s: float = 30.0) -> LoadPolicy.Response:
+        return self._call(LoadPolicy, "policy/load", LoadPolicy.Request(policy=policy), timeout_s)
 
     def loco(self, command: str, value: int = 0, timeout_s: float = 20.0) -> LocoCommand.Response:
         """The default outlasts the node's longest outcome wait (loco_get_up_timeout_s, 12 s)."""

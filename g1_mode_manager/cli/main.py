@@ -9,6 +9,8 @@ import sys
 from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_localhost
 from g1_mode_manager.core.loco_verbs import LOCO_VERBS
 
+POLICY_VERBS = ("load", "shadow", "engage", "disengage", "hold", "unload")
+
 
 def _print_mode(msg) -> None:
     extra = f" -> {msg.transition_target}" if msg.transition_in_progress else ""
@@ -43,6 +45,11 @@ def main(argv: list[str] | None = None) -> int:
                                      "limits, until a teleop command or take-over")
     sub.add_parser("take-over", help="the teleop (cmd_vel) drives again; the autonomy's Moves stop")
     sub.add_parser("drive", help="keyboard teleop on <namespace of --manager>/cmd_vel")
+    p = sub.add_parser("policy", help="a policy in the node's loop (docs/policies.md): load [NAME|PATH.yaml], "
+                                      "shadow, engage, disengage, hold, unload")
+    p.add_argument("verb", choices=POLICY_VERBS)
+    p.add_argument("policy", nargs="?", default="", help="load: a built-in name or a deploy config's path; "
+                                                         "default the node's parameter `policy`")
     args = parser.parse_args(argv)
 
     default_discovery_to_localhost()
@@ -80,6 +87,12 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         return 0 if r.success else 1
     if args.cmd in ("hand-over", "take-over"):
         r = client.trigger("hand_over_to_autonomy" if args.cmd == "hand-over" else "take_over")
+        print(f"success={r.success}: {r.message}")
+        return 0 if r.success else 1
+    if args.cmd == "policy":
+        timeout_s = 60.0  # engage and disengage wait for the robot's switch, like set-mode
+        r = (client.load_policy(args.policy) if args.verb == "load"
+             else client.trigger(f"policy/{args.verb}", timeout_s))
         print(f"success={r.success}: {r.message}")
         return 0 if r.success else 1
     if args.cmd == "loco":

@@ -26,7 +26,7 @@ from e2e.user_ctrl_session import (
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, InternalCtrl
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
-from support.timing import POLICY_STALL_S, RECORD_WAIT_S
+from support.timing import ESTOP_FRAME_S, POLICY_STALL_S, RECORD_WAIT_S, check_latency
 
 pytestmark = pytest.mark.e2e
 
@@ -111,6 +111,7 @@ def test_an_estop_mid_walk_under_the_policy_damps_the_robot_and_ends_the_policys
     stack = shared_stack_factory(node_params=STEADY_POLICY)
     engage(stack)
     stack.drive_sim_time(0.4, 1.5)  # walking under the policy: the teleop's cmd_vel goes to the node's loop
+    stack.match_estop()
     t0 = time.monotonic()
     r = stack.estop()
     print(f"e-stop: {r.message} ({(time.monotonic() - t0) * 1000:.0f} ms)")
@@ -123,7 +124,7 @@ def test_an_estop_mid_walk_under_the_policy_damps_the_robot_and_ends_the_policys
     assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
     ev = stack.record.events()
     first_damping = damping_since()[0]
-    print(f"first damping frame {(first_damping['t'] - t0) * 1000:.1f} ms after the e-stop call")
+    check_latency("e-stop under the policy -> first damping frame", t0, first_damping["t"], ESTOP_FRAME_S)
     policy_after = [e for _, e in frames_on(ev, "user_lowcmd")
                     if e["t"] > first_damping["t"] and abs(e["kp_max"] - POLICY_KP_MAX) < 1e-3]
     assert not policy_after, f"{len(policy_after)} policy frames after the first damping frame"

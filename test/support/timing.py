@@ -41,6 +41,8 @@ HIGH_LEVEL_DAMP_S: Final = 0.5
 DAMPING_UNTIL_SELECT_S: Final = 0.1
 #: ... and the Damp goes out the moment it does: the robot held neither by frames nor by fsm Damp (a few ms alone).
 NEITHER_HELD_S: Final = 0.15
+#: An e-stop called while a policy in the node's loop drives the robot -> the first damping frame on the robot.
+ESTOP_FRAME_S: Final = 0.05
 #: user_ctrl: the user's last frame on the robot -> the node's hand-back request (SwitchToInternalCtrl) there.
 HAND_BACK_S: Final = 0.5
 #: A set_mode or an e-stop's answer while a Move's reply is held on the robot (they must not wait for it).
