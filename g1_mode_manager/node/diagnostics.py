@@ -9,6 +9,7 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.relay.drive_sources import Driving
 from g1_mode_manager.relay.link_health import LinkReport
+from g1_mode_manager.relay.policy_runner import PolicyRunner
 from g1_mode_manager.relay.walk_judge import WalkReport
 
 
@@ -110,3 +111,20 @@ def _header(stamp):
     from std_msgs.msg import Header
 
     return Header(stamp=stamp)
+
+
+def policy_status(runner: PolicyRunner, hardware_id: str) -> DiagnosticStatus:
+    """The policy in the node's loop: OK while none runs or it runs without overruns, WARN with overruns or after
+    the loop stopped it on a fault of its own (until the next load)."""
+    st = DiagnosticStatus(name="g1_mode_manager: policy", hardware_id=hardware_id)
+    controller, stats = runner.controller, runner.stats
+    name = "" if controller is None else controller.name
+    st.level = DiagnosticStatus.WARN if runner.last_fault or (runner.ticking() and stats.overruns) else \
+        DiagnosticStatus.OK
+    st.message = f"{name or 'no policy'}: {runner.phase.value}" + (f"; stopped: {runner.last_fault}"
+                                                                     if runner.last_fault else "")
+    st.values = [_kv("policy", name), _kv("phase", runner.phase.value), _kv("rate_hz", f"{stats.rate_hz():.1f}"),
+                 _kv("inference_p99_ms", f"{stats.p99(stats.inference_s) * 1e3:.2f}"),
+                 _kv("tick_p99_ms", f"{stats.p99(stats.tick_s) * 1e3:.2f}"), _kv("overruns", stats.overruns),
+                 _kv("last_fault", runner.last_fault)]
+    return st

@@ -20,7 +20,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.node.diagnostics import build_diagnostics, drive_status, walk_status
+from g1_mode_manager.node.diagnostics import build_diagnostics, drive_status, policy_status, walk_status
 from g1_mode_manager.node.odometry import OdometryPublisher
 from g1_mode_manager.node.parts import Parts
 from g1_mode_manager.node.settings import Settings
@@ -138,6 +138,7 @@ class StatePublishers:
         array.status.append(self._odom.status(name))
         array.status.append(walk_status(p.walk.report(time.monotonic()), name))
         array.status.append(drive_status(p.cmd_vel.sources.driving(status.mode), name))
+        array.status.append(policy_status(p.policy, name))
         self._diag_pub.publish(array)
 
     def _mirror_sport_state(self) -> None:

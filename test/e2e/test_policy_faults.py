@@ -87,7 +87,11 @@ def test_a_policy_that_fails_mid_walk_is_stopped_and_the_robot_handed_back(share
 
 
 def test_a_frozen_state_stream_mid_walk_stops_the_policy_and_the_robot_is_handed_back(shared_stack_factory) -> None:
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
     stack = shared_stack_factory(node_params=STEADY_POLICY)
+    diagnostics: list = []
+    stack.ros.node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 10)
     engage(stack)
     stack.drive_sim_time(0.4, 1.5)
     since = time.monotonic()
@@ -99,3 +103,9 @@ def test_a_frozen_state_stream_mid_walk_stops_the_policy_and_the_robot_is_handed
     target = handed_back_by_the_rules(stack, since)
     # without a fresh sample the hand-back cannot see the robot upright: it takes it for a fall
     print(f"handed back with {InternalCtrl(target).name}")
+
+    def policy_warns() -> bool:
+        return any(st.name == "g1_mode_manager: policy" and st.level == DiagnosticStatus.WARN
+                   and "state sample" in st.message for array in diagnostics for st in array.status)
+
+    assert wait_until(policy_warns, RECORD_WAIT_S), "/diagnostics does not say why the policy stopped"
