@@ -593,6 +593,43 @@ def cpu_only(seconds: float) -> int:
     return 0
 
 
+POLICY_KEYS = ("policy_50hz_pct", "raw_policy_50hz_pct", "policy_inference_p99_ms", "raw_policy_inference_p99_ms",
+               "policy_jitter_p99_ms", "raw_policy_jitter_p99_ms")
+
+
+def _policy_rows(bench: Bench, sim: Sim, seconds: float) -> tuple[list[tuple[str, str]], dict[str, float]]:
+    from bench.policy_rows import policy_rows
+
+    return policy_rows(bench, sim, start_mode_manager, stop_node, cpu_percent, Stats, SDK_DOMAIN, seconds, REPO)
+
+
+def policy_goals(summary: dict[str, float]) -> list[tuple[str, bool]]:
+    return [("policy: node CPU <= the standalone loop's", summary["policy_50hz_pct"] <= summary["raw_policy_50hz_pct"]),
+            ("policy: frame jitter p99 <= the standalone loop's",
+             summary["policy_jitter_p99_ms"] <= summary["raw_policy_jitter_p99_ms"]),
+            ("policy: frame jitter p99 <= 1 ms", summary["policy_jitter_p99_ms"] <= 1.0)]
+
+
+def policy_only(seconds: float) -> int:
+    """The policy row alone, printed as the full run prints it, with its goals."""
+    from g1_mode_manager.protocol.dds import init_channels
+
+    init_channels(SDK_DOMAIN, "lo")
+    ros = RosClient("bench")
+    sim = Sim()
+    try:
+        rows, summary = _policy_rows(Bench(ros), sim, seconds)
+    finally:
+        ros.close()
+        sim.stop()
+    width = max(len(r[0]) for r in rows)
+    for name, value in rows:
+        print(f"{name:<{width}}  {value}", flush=True)
+    print("goals: " + ", ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in policy_goals(summary)))
+    print("POLICY " + " ".join(f"{k}={summary[k]:.2f}" for k in POLICY_KEYS))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=100,
@@ -600,10 +637,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cpu-seconds", type=float, default=10.0, help="length of each CPU measurement")
     parser.add_argument("--cpu-only", action="store_true",
                         help="only the node's CPU rows (idle HIGH_LEVEL with the body checks on, the streams)")
+    parser.add_argument("--policy-only", action="store_true",
+                        help="only the policy row (the node's loop beside a standalone loop on Unitree's SDK)")
     args = parser.parse_args(argv)
     restore_sigint()  # the bench stops its sims and nodes with SIGINT, started in the background or not
     if args.cpu_only:
         return cpu_only(args.cpu_seconds)
+    if args.policy_only:
+        return policy_only(args.cpu_seconds)
     from g1_mode_manager.protocol.dds import init_channels
 
     init_channels(SDK_DOMAIN, "lo")
@@ -671,6 +712,12 @@ def main(argv: list[str] | None = None) -> int:
         stream_rows, stream_summary = cpu_rows(bench, sim, args.cpu_seconds)
         rows += stream_rows
         summary.update(stream_summary)
+        sim.stop()
+
+        sim = Sim()  # on its feet: the policy holds it
+        stream_rows, stream_summary = _policy_rows(bench, sim, args.cpu_seconds)
+        rows += stream_rows
+        summary.update(stream_summary)
     finally:
         ros.close()
         sim.stop()
@@ -690,12 +737,14 @@ def main(argv: list[str] | None = None) -> int:
              ("idle CPU <= 2 %", summary["cpu_idle_pct"] <= 2.0), ("100 Hz CPU <= 6 %", summary["cpu_100hz_pct"] <= 6.0),
              ("~/lowcmd 500 Hz CPU <= half the raw SDK publisher's",
               summary["lowcmd_500hz_pct"] <= 0.5 * summary["raw_lowcmd_500hz_pct"]),
-             ("~/lowcmd p99 <= raw p99 + 1 ms", summary["lowcmd_p99_ms"] <= summary["raw_lowcmd_p99_ms"] + 1.0)]
+             ("~/lowcmd p99 <= raw p99 + 1 ms", summary["lowcmd_p99_ms"] <= summary["raw_lowcmd_p99_ms"] + 1.0),
+             *policy_goals(summary)]
     print("goals: " + ", ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in goals))
     keys = ("estop_damp_p99_ms", "raw_rpc_p99_ms", "cmd_vel_median_ms", "cmd_vel_p99_ms", "raw_move_median_ms",
             "raw_move_p99_ms", "cpu_idle_pct", "cpu_100hz_pct", "lowcmd_500hz_pct", "raw_lowcmd_500hz_pct",
             "lowcmd_p99_ms", "raw_lowcmd_p99_ms", "arm_50hz_pct", "raw_arm_50hz_pct", "lowlevel_idle_pct",
-            "lowcmd_jitter_p99_ms", "raw_lowcmd_jitter_p99_ms", "floor_take_500hz_pct", "floor_relay_500hz_pct")
+            "lowcmd_jitter_p99_ms", "raw_lowcmd_jitter_p99_ms", "floor_take_500hz_pct", "floor_relay_500hz_pct",
+            *POLICY_KEYS)
     print("SUMMARY " + " ".join(f"{k}={summary[k]:.2f}" for k in keys))
     return 0
 

@@ -62,6 +62,11 @@ def yaw_of(quat_wxyz) -> float:
 def engage(stack, policy: str = "loco_ppo") -> None:
     """Walked, stopped; the policy loaded, shadowed for 3 s and engaged; returns once its blend is over."""
     seen = statuses(stack)
+    # every verb's client made now: one made at the moment of its first call has lost that call to discovery (a
+    # disengage that never reached the node), as harness.mode_manager.RosClient says of its clients
+    for verb in ("shadow", "engage", "disengage", "hold"):
+        stack.ros.client(Trigger, stack.name(f"policy/{verb}"))
+    stack.ros.client(LoadPolicy, stack.name("policy/load"))
     enter_walking(stack)
     r = load(stack, policy)
     assert r.success, r.message
