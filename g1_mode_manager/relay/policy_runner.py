@@ -45,7 +45,9 @@ class DisengageTo(StrEnum):
 class PolicyLimits:
     """The loop's bounds (node/settings.py holds their defaults and says why)."""
 
-    blend_s: float = 2.0
+    #: short: the policy runs during the blend and pushes against a robot held back from its targets (at 2 s the
+    #: walker's ankle target grew past its range, docs/policies.md); the shadow check bounds the step it softens
+    blend_s: float = 0.5
     engage_max_error_rad: float = 0.5
     state_timeout_s: float = 0.05
     overrun_s: float = 0.02

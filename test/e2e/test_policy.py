@@ -59,8 +59,9 @@ def yaw_of(quat_wxyz) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def engage(stack, policy: str = "loco_ppo") -> None:
-    """Walked, stopped; the policy loaded, shadowed for 3 s and engaged; returns once its blend is over."""
+def engage(stack, policy: str = "loco_ppo", shadow_s: float = 3.0) -> None:
+    """Walked, stopped; the policy loaded, shadowed for ``shadow_s`` of sim time and engaged; returns once its blend
+    is over."""
     seen = statuses(stack)
     # every verb's client made now: one made at the moment of its first call has lost that call to discovery (a
     # disengage that never reached the node), as harness.mode_manager.RosClient says of its clients
@@ -72,12 +73,12 @@ def engage(stack, policy: str = "loco_ppo") -> None:
     assert r.success, r.message
     r = policy_call(stack, "shadow")
     assert r.success, r.message
-    wait_sim(stack, 3.0)
+    wait_sim(stack, shadow_s)
     r = policy_call(stack, "engage")
     print(f"engage: {r.message}")
     assert r.success, r.message
     wait_sim(stack, 2.5)  # the blend (2 s) and a moment under the policy alone
-    assert wait_until(lambda: seen and seen[-1].phase == "running", 5.0), [s.phase for s in seen]
+    assert wait_until(lambda: seen and seen[-1].phase == "running", 5.0), [(s.phase, s.last_fault) for s in seen][-3:]
 
 
 def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stack_factory) -> None:
@@ -89,7 +90,7 @@ def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stac
     print(f"walked {walked:.2f} m under the policy; the loop's last fault: {seen[-1].last_fault!r}")
     assert walked >= 2.0, f"walked only {walked:.2f} m"
     yaw0 = yaw_of(stack.sim.get()["base"]["quaternion"])
-    stack.drive_sim_time(0.0, 4.0, wz=1.0)
+    stack.drive_sim_time(0.0, 3.0, wz=1.0)
     turned = math.degrees(yaw_of(stack.sim.get()["base"]["quaternion"]) - yaw0) % 360
     print(f"turned {turned:.0f} degrees under the policy")
     stack.drive_sim_time(0.0, 1.0)
@@ -114,8 +115,8 @@ def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stac
 
 def test_an_estop_mid_walk_under_the_policy_damps_the_robot_and_ends_the_policys_frames(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=STEADY_POLICY)
-    engage(stack)
-    stack.drive_sim_time(0.4, 1.5)  # walking under the policy: the teleop's cmd_vel goes to the node's loop
+    engage(stack, shadow_s=1.0)
+    stack.drive_sim_time(0.4, 1.0)  # walking under the policy: the teleop's cmd_vel goes to the node's loop
     stack.match_estop()
     t0 = time.monotonic()
     r = stack.estop()
