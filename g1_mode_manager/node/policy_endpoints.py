@@ -63,6 +63,7 @@ class PolicyEndpoints:
 
     def _trigger(self, name: str, verb: object):
         def callback(_request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+            self._log.info(f"policy/{name} requested")  # beside its answer's line: a lost request shows as neither
             response.success, response.message = verb()  # type: ignore[operator]
             self._answered(name, response.success, response.message)
             return response

@@ -78,8 +78,8 @@ def test_a_policy_that_fails_mid_walk_is_stopped_and_the_robot_handed_back(share
     params = STEADY_POLICY
     if fault == "nan":
         model = faulty_policies.nan_when_fast(tmp_path / "nan.onnx")
-    else:  # ticks of twice the loop's overrun bound at the test's speed, far shorter than the relay's silence
-        model = faulty_policies.slow_when_fast(tmp_path / "slow.onnx", tick_s=2 * POLICY_OVERRUN_TEST_S, at_mps=SPEED)
+    else:  # ticks of twice the loop's overrun bound past FAIL_ABOVE_MPS, far shorter than the relay's silence
+        model = faulty_policies.slow_when_fast(tmp_path / "slow.onnx", tick_s=2 * POLICY_OVERRUN_TEST_S)
         # the first overrun stops the policy (the count in a row is the unit tests'): a walker that stalls three
         # times proposes wild targets, which the frame check would stop first
         params = (*STEADY_POLICY, f"policy_overrun_s:={POLICY_OVERRUN_TEST_S}", "policy_max_overruns:=1")

@@ -55,17 +55,18 @@ def nan_when_fast(out: Path) -> Path:
     return out
 
 
-def slow_when_fast(out: Path, *, tick_s: float, at_mps: float) -> Path:
-    """A Loop of empty steps, as many as (vx - FAIL_ABOVE) times a rate (none below it), whose count times 0 is
-    added to every action: an inference of about ``tick_s`` at ``at_mps``. The rate is measured on this machine
-    (one inference with a known count) before the model is written."""
+def slow_when_fast(out: Path, *, tick_s: float) -> Path:
+    """A Loop of empty steps, none up to FAIL_ABOVE_MPS and a fixed count past it, whose count times 0 is added to
+    every action: an inference of about ``tick_s`` from the first tick past that speed (a step, not a ramp: a walker
+    slowed by degrees falls before it overruns). The count is measured on this machine (one inference with a known
+    count) before the model is written."""
     probe = out.with_suffix(".probe.onnx")
-    _slow(probe, 1_000_000)
+    _slow(probe, 200_000)
     started = time.perf_counter()
-    _infer(probe, at_mps)
-    per_mps = 1_000_000 * tick_s / (time.perf_counter() - started)
+    _infer(probe, 2 * FAIL_ABOVE_MPS)
+    count = 200_000 * tick_s / (time.perf_counter() - started)
     probe.unlink()
-    _slow(out, int(per_mps))
+    _slow(out, int(count))
     return out
 
 
@@ -75,11 +76,11 @@ def _infer(model: Path, vx: float) -> None:
     ort.InferenceSession(str(model), providers=["CPUExecutionProvider"]).run(None, {"actor_obs": obs})
 
 
-def _slow(out: Path, per_mps: int) -> None:
+def _slow(out: Path, count: int) -> None:
     model = onnx.load(str(LOCO))
     graph = model.graph
     vx = _vx(graph)
-    graph.initializer.extend([helper.make_tensor("per_mps", TensorProto.FLOAT, [], [float(per_mps)]),
+    graph.initializer.extend([helper.make_tensor("steps", TensorProto.FLOAT, [], [float(count)]),
                               helper.make_tensor("always", TensorProto.BOOL, [], [True])])
     body = helper.make_graph(
         [helper.make_node("Identity", ["cond_in"], ["cond_out"]),
@@ -91,9 +92,9 @@ def _slow(out: Path, per_mps: int) -> None:
         [helper.make_tensor_value_info("cond_out", TensorProto.BOOL, []),
          helper.make_tensor_value_info("acc_out", TensorProto.FLOAT, [])],
         [helper.make_tensor("one_in", TensorProto.FLOAT, [], [1.0])])
-    graph.node.extend([helper.make_node("Sub", [vx, "fail_above"], ["over"]),
-                       helper.make_node("Relu", ["over"], ["over_pos"]),
-                       helper.make_node("Mul", ["over_pos", "per_mps"], ["count_f"]),
+    graph.node.extend([helper.make_node("Greater", [vx, "fail_above"], ["over"]),
+                       helper.make_node("Cast", ["over"], ["over_f"], to=TensorProto.FLOAT),
+                       helper.make_node("Mul", ["over_f", "steps"], ["count_f"]),
                        helper.make_node("Cast", ["count_f"], ["count_1"], to=TensorProto.INT64),
                        helper.make_node("Squeeze", ["count_1"], ["count"]),
                        helper.make_node("Loop", ["count", "always", "zero"], ["spun"], body=body),
