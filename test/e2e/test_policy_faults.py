@@ -19,7 +19,7 @@ from support.mode_manager import wait_until
 from support.sim_record import requests
 from support.timing import POLICY_OVERRUN_TEST_S, RECORD_WAIT_S
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.policy_faults]
 
 #: The teleop's speed once walking: past the faulty policies' FAIL_ABOVE_MPS.
 SPEED = 0.6

@@ -8,8 +8,8 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP, JointCommandError, validate_lowcmd
-from g1_mode_manager.protocol.motors import DAMPING_KD, EFFORT_LIMIT_NM, JOINT_INDEX, JOINT_NAMES
+from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP, RANGE_MARGIN_RAD, JointCommandError, validate_lowcmd
+from g1_mode_manager.protocol.motors import DAMPING_KD, EFFORT_LIMIT_NM, JOINT_INDEX, JOINT_NAMES, JOINT_RANGE_RAD
 
 
 def reference(names, q, dq, tau, kp, kd) -> list[tuple[float, ...]]:
@@ -28,6 +28,9 @@ def reference(names, q, dq, tau, kp, kd) -> list[tuple[float, ...]]:
         cmd = (float(q[i]), float(dq[i]) if dq else 0.0, float(tau[i]) if tau else 0.0, float(kp[i]), float(kd[i]))
         if not all(math.isfinite(v) for v in cmd):
             raise JointCommandError("non-finite")
+        low, high = JOINT_RANGE_RAD[motor]
+        if not low - RANGE_MARGIN_RAD <= cmd[0] <= high + RANGE_MARGIN_RAD:
+            raise JointCommandError("range")
         if not 0.0 <= cmd[3] <= MAX_KP or not 0.0 <= cmd[4] <= MAX_KD:
             raise JointCommandError("gains")
         if abs(cmd[2]) > EFFORT_LIMIT_NM[motor]:
