@@ -576,20 +576,29 @@ def cpu_rows(bench: Bench, sim: Sim, seconds: float) -> tuple[list[tuple[str, st
 
 def cpu_only(seconds: float) -> int:
     """The CPU rows alone (with their raw references), printed as the full run prints them."""
+    return rows_only(lambda bench, sim: cpu_rows(bench, sim, seconds), {"gantry": True}, "STREAMS", ())
+
+
+def rows_only(rows_of: Callable, sim_options: dict, label: str, keys: tuple[str, ...],
+              goals: Callable[[dict[str, float]], list[tuple[str, bool]]] | None = None) -> int:
+    """One group of rows on a sim of its own, printed as the full run prints them, then ``label`` with its figures
+    (``keys``, or all of them)."""
     from g1_mode_manager.protocol.dds import init_channels
 
     init_channels(SDK_DOMAIN, "lo")
     ros = RosClient("bench")
-    sim = Sim(gantry=True)
+    sim = Sim(**sim_options)
     try:
-        rows, summary = cpu_rows(Bench(ros), sim, seconds)
+        rows, summary = rows_of(Bench(ros), sim)
     finally:
         ros.close()
         sim.stop()
     width = max(len(r[0]) for r in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}", flush=True)
-    print("STREAMS " + " ".join(f"{k}={v:.2f}" for k, v in summary.items()))
+    if goals is not None:
+        print("goals: " + ", ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in goals(summary)))
+    print(f"{label} " + " ".join(f"{k}={summary[k]:.2f}" for k in (keys or summary)))
     return 0
 
 
@@ -611,23 +620,8 @@ def policy_goals(summary: dict[str, float]) -> list[tuple[str, bool]]:
 
 
 def policy_only(seconds: float) -> int:
-    """The policy row alone, printed as the full run prints it, with its goals."""
-    from g1_mode_manager.protocol.dds import init_channels
-
-    init_channels(SDK_DOMAIN, "lo")
-    ros = RosClient("bench")
-    sim = Sim()
-    try:
-        rows, summary = _policy_rows(Bench(ros), sim, seconds)
-    finally:
-        ros.close()
-        sim.stop()
-    width = max(len(r[0]) for r in rows)
-    for name, value in rows:
-        print(f"{name:<{width}}  {value}", flush=True)
-    print("goals: " + ", ".join(f"{name}: {'met' if ok else 'NOT met'}" for name, ok in policy_goals(summary)))
-    print("POLICY " + " ".join(f"{k}={summary[k]:.2f}" for k in POLICY_KEYS))
-    return 0
+    """The policy row alone, with its goals."""
+    return rows_only(lambda bench, sim: _policy_rows(bench, sim, seconds), {}, "POLICY", POLICY_KEYS, policy_goals)
 
 
 def main(argv: list[str] | None = None) -> int:
