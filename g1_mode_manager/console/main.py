@@ -18,6 +18,8 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any
 
+from g1_mode_manager.help_flag import wants_help
+
 if TYPE_CHECKING:  # rclpy is imported only once the RMW is set (see _environment)
     from rclpy.node import Node
 
@@ -44,6 +46,9 @@ def _environment() -> None:
 
 
 def main(args: list[str] | None = None) -> None:
+    if wants_help(args):
+        print(__doc__)
+        return
     _environment()
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor

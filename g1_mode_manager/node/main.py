@@ -1,5 +1,11 @@
 """Entry point of the `mode_manager` executable.
 
+    mode_manager [--ros-args -p name:=value ... -r __ns:=/g1_a]
+
+The G1 mode manager node (README.md). Its parameters, their defaults and ranges: config/mode_manager.yaml, or
+`ros2 param describe /g1_mode_manager <name>` while it runs; e.g. `-p network_interface:=eth0` for a real G1,
+`-p dds_domain:=N` for the sim's domain.
+
 SIGINT and SIGTERM ask for an orderly stop: the node hands the robot back (arms ramped out, StopMove)
 and stops its threads while the ROS context is still valid, and only then is the context shut down.
 (rclpy's own handler shuts the context down first, under threads that still wait on it: that crashed
@@ -15,6 +21,7 @@ import threading
 
 # Nothing of rclpy or the SDK before the RMW check: importing rclpy loads rcl, which loads the RMW named in
 # the environment (and exits 102 if that one is not installed).
+from g1_mode_manager.help_flag import wants_help
 from g1_mode_manager.node.one_dds_stack import refusal_from_environment, second_dds_stack
 
 #: Exit status of a refused start (a configuration error, not a crash).
@@ -36,6 +43,9 @@ def _refuse(why: str) -> None:
 
 
 def main(args: list[str] | None = None) -> None:
+    if wants_help(args):
+        print(__doc__)
+        return
     refusal = refusal_from_environment(os.environ)
     if refusal:
         _refuse(refusal)

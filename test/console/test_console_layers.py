@@ -10,7 +10,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[2] / "g1_mode_manager"
 CONSOLE = PACKAGE / "console"
 ALLOWED = ("g1_mode_manager.console", "g1_mode_manager.core", "g1_mode_manager.display", "g1_mode_manager.topic_qos",
-           "g1_mode_manager.protocol")
+           "g1_mode_manager.protocol", "g1_mode_manager.help_flag")
 
 
 def _imports(path: Path) -> set[str]:
