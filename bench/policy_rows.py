@@ -43,7 +43,7 @@ def policy_rows(bench, sim, start_node: Callable, stop_node: Callable, cpu_perce
     bench.ros.node.create_subscription(PolicyStatus, "/g1_mode_manager/policy/status", statuses.append, MODE_QOS)
     try:
         bench.ros.wait_node_answers()
-        # every client made now: one made at the moment of its first call has lost that call to discovery
+        # every client made now, discovered while the robot comes to rest
         for verb in ("shadow", "engage", "disengage"):
             bench.ros.client(Trigger, f"/g1_mode_manager/policy/{verb}")
         for mode in ("high_level",):

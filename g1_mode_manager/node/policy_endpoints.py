@@ -5,6 +5,8 @@ of the latest tick, beside the measured joints of joint_states) while the loop t
 
 from __future__ import annotations
 
+import traceback
+
 from g1_mode_manager_msgs.msg import PolicyStatus
 from g1_mode_manager_msgs.srv import LoadPolicy
 from rclpy.callback_groups import CallbackGroup
@@ -63,14 +65,23 @@ class PolicyEndpoints:
 
     def _trigger(self, name: str, verb: object):
         def callback(_request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
-            self._log.info(f"policy/{name} requested")  # beside its answer's line: a lost request shows as neither
-            response.success, response.message = verb()  # type: ignore[operator]
+            self._log.info(f"policy/{name} requested")
+            try:
+                response.success, response.message = verb()  # type: ignore[operator]
+            except Exception as exc:  # an answer, always: a callback that raises leaves its caller waiting forever
+                self._log.error(f"policy/{name} failed: {type(exc).__name__}: {exc}\n{traceback.format_exc()}")
+                response.success, response.message = False, f"policy/{name} failed: {type(exc).__name__}: {exc}"
             self._answered(name, response.success, response.message)
             return response
         return callback
 
     def _answered(self, verb: str, success: bool, message: str) -> None:
-        (self._log.info if success else self._log.warn)(f"policy/{verb}: {message}")
+        # one call site per severity: rclpy raises when a call site's severity changes, and a raising service
+        # callback never answers its caller
+        if success:
+            self._log.info(f"policy/{verb}: {message}")
+        else:
+            self._log.warning(f"policy/{verb}: {message}")
         self._publish()
         self._worker.wake()  # the loop may tick now: its status and targets are due
 
