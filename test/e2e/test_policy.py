@@ -15,6 +15,7 @@ from e2e.user_ctrl_session import (
     STANDING_Z_M,
     STEADY,
     USER_CTRL,
+    damped_on_the_record,
     enter_walking,
     frames_on,
     fsm_states,
@@ -26,7 +27,7 @@ from e2e.user_ctrl_session import (
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, InternalCtrl
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
-from support.timing import ESTOP_FRAME_S, POLICY_STALL_S, RECORD_WAIT_S, check_latency
+from support.timing import ESTOP_FRAME_S, POLICY_STALL_S, check_latency
 
 pytestmark = pytest.mark.e2e
 
@@ -123,13 +124,8 @@ def test_an_estop_mid_walk_under_the_policy_damps_the_robot_and_ends_the_policys
     print(f"e-stop: {r.message} ({(answered - t0) * 1000:.0f} ms)")
     assert r.success, r.message
 
-    def damping_since() -> list[dict]:
-        return [e for _, e in frames_on(stack.record.events(), "user_lowcmd") if e["t"] >= t0 and e["kp_max"] == 0.0]
-
-    assert wait_until(lambda: bool(damping_since()), RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after the e-stop"
-    assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
+    first_damping = damped_on_the_record(stack, t0)[0]
     ev = stack.record.events()
-    first_damping = damping_since()[0]
     check_latency("e-stop under the policy -> first damping frame", t0, first_damping["t"], ESTOP_FRAME_S)
     # the first damping frame goes out before the e-stop takes the forward gate (the first packet waits for no lock),
     # so one policy frame already past the gate may still follow it; none once EMERGENCY is registered, which the

@@ -20,6 +20,7 @@ from e2e.user_ctrl_session import (
     USER_KP,
     WALKS_M,
     HoldController,
+    damped_on_the_record,
     enter_user_ctrl,
     enter_walking,
     frames_on,
@@ -120,14 +121,8 @@ def test_estop_in_user_control_damps_and_verifies(shared_stack_factory) -> None:
     print(f"e-stop: {r.message} ({(answered - t0) * 1000:.0f} ms)")
     assert r.success, r.message
 
-    def damping_since() -> list[dict]:
-        return [e for _, e in frames_on(stack.record.events(), "user_lowcmd") if e["t"] >= t0 and e["kp_max"] == 0.0]
-
-    # the sim's frame handler may lag its reader on a loaded machine: wait for the record, not a fixed time
-    assert wait_until(lambda: bool(damping_since()), RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after the e-stop"
-    assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
+    damping = damped_on_the_record(stack, t0)
     ev = stack.record.events()
-    damping = damping_since()
     print(f"first damping frame {(damping[0]['t'] - t0) * 1000:.1f} ms after the e-stop call")
     passive = [e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= t0]
     assert passive and json.loads(passive[0]["p"])["data"] == InternalCtrl.PASSIVE

@@ -139,6 +139,18 @@ def enter_user_ctrl(stack, controller: HoldController) -> float:
     return t0
 
 
+def damped_on_the_record(stack, since: float) -> list[dict]:
+    """The damping frames on rt/user_lowcmd since ``since``, once the record shows one and the robot's Damp (the
+    sim's frame handler may lag its reader on a loaded machine: waited for on the record, not for a fixed time)."""
+
+    def damping() -> list[dict]:
+        return [e for _, e in frames_on(stack.record.events(), "user_lowcmd") if e["t"] >= since and e["kp_max"] == 0.0]
+
+    assert wait_until(lambda: bool(damping()), RECORD_WAIT_S), "no damping frame on rt/user_lowcmd after the e-stop"
+    assert wait_until(lambda: fsm_states(stack.record.events())[-1][1] == 1, RECORD_WAIT_S), "the record never showed Damp"
+    return damping()
+
+
 def no_user_frame_before_1000(ev, user_kp: float = USER_KP) -> None:
     """No user frame let through before fsm 1000 (by the record's order: a frame is judged when the sim handles it,
     and the state line comes before the first frame it lets through), and the hand-over frame arrived at the robot
