@@ -3,9 +3,11 @@
 A cell is (what ``~/mode`` showed when the e-stop went out) x (what the operators had in flight then). The
 row is the mode, or ``->TARGET`` while a transition is in progress (``->IDLE`` from UNINITIALIZED is the
 first connect). The columns are the operators' own outstanding requests, seen from their side: a mode call
-sent and not yet answered, a loco command likewise, a stream being published, or nothing. Several can be in
-flight at once; each counts. A transition is itself a mode call in flight, so ``->X`` x nothing cannot
-happen and is not required.
+sent and not yet answered, a loco command likewise, a stream being published, a learned policy at work in the
+node's loop (shadowing, engaging, running, holding or disengaging, as its ``~/policy/status`` says), or nothing.
+Several can be in flight at once; each counts. A transition is itself a mode call in flight, so ``->X`` x nothing
+cannot happen and is not required; a policy runs in IDLE and HIGH_LEVEL (its shadow), while LOW_LEVEL is entered
+for it and in LOW_LEVEL, and those four cells are required.
 
 Who drives has cells of its own, each a scenario in which it happened on the robot's record or the node's
 ``~/mode`` (drivers.drive_cells): the planner handed the robot and its Moves on the record, a hand-over refused,
@@ -22,9 +24,13 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 ROWS = ("UNINITIALIZED", "IDLE", "HIGH_LEVEL", "LOW_LEVEL", "FAULT", "->IDLE", "->HIGH_LEVEL", "->LOW_LEVEL")
-COLUMNS = ("nothing", "mode call", "loco command", "stream")
-#: Every cell a batch must hit: all but a transition with nothing in flight.
-REQUIRED = tuple((r, c) for r in ROWS for c in COLUMNS if not (r.startswith("->") and c == "nothing"))
+COLUMNS = ("nothing", "mode call", "loco command", "stream", "policy")
+#: The rows in which a policy can be at work: its shadow (IDLE, HIGH_LEVEL), its engage, its run.
+POLICY_ROWS = ("IDLE", "HIGH_LEVEL", "->LOW_LEVEL", "LOW_LEVEL")
+#: Every cell a batch must hit: all but a transition with nothing in flight, and a policy only where it can be at
+#: work. An odd count, so that the seed's cell and its path (by parity) pair every cell with both paths.
+REQUIRED = tuple((r, c) for r in ROWS for c in COLUMNS
+                 if not (r.startswith("->") and c == "nothing") and (c != "policy" or r in POLICY_ROWS))
 HAND_OVER = "hand-over, planner Moves"
 HAND_OVER_REFUSED = "hand-over refused"
 TAKEOVER_BY_TELEOP = "takeover by teleop"

@@ -17,6 +17,7 @@ from typing import Any
 from g1_mode_manager_msgs.srv import LocoCommand, SetMode
 from std_srvs.srv import Trigger
 
+from chaos import policy
 from chaos.coverage import InFlight
 from chaos.drivers import TELEOP_VX, Call, DriveLog
 from chaos.plan import SETUP, STREAMS, Plan
@@ -55,6 +56,7 @@ class Operators:
         #: left in EMERGENCY (scenario_run), so the setup never sends to a node being stopped
         self.node_checked = threading.Event()
         self.mode_calls: list[float] = []  # when each mode request began (list.append is atomic)
+        self.engage_calls: list[float] = []  # when each policy engage was sent
         if p.kill_at is None:
             self.node_back.set()
 
@@ -84,6 +86,15 @@ class Operators:
             until = time.monotonic() + SETUP_RETRY_S
             while (k == SETUP and kind == "mode" and reply is not None and not reply.success
                    and reply.mode_name.lower() != arg):
+                if time.monotonic() > until or self._stop.wait(0.5):
+                    break
+                if fault_claimed():
+                    self._clear(fault_claimed)
+                reply = self.act(kind, arg)
+            # a setup's policy verb refused (a transition of the noise still in progress, a shadow without fresh
+            # targets yet) is asked again likewise
+            while (k == SETUP and kind == "policy" and reply is not None and not reply.success
+                   and "already" not in reply.message):
                 if time.monotonic() > until or self._stop.wait(0.5):
                     break
                 if fault_claimed():
@@ -155,11 +166,13 @@ class Operators:
         self._drive_call(kind, wait=False)
 
     def act(self, kind: str, arg: Any) -> Any:
-        """Do one action; a mode request's reply or a hand-over's or take-over's Call (None if unanswered), else
-        None."""
+        """Do one action; a mode request's or a policy verb's reply or a hand-over's or take-over's Call (None if
+        unanswered), else None."""
         column = _COLUMN_OF.get(kind)
         if kind == "mode":
             self.mode_calls.append(time.monotonic())
+        if (kind, arg) == ("policy", "engage"):
+            self.engage_calls.append(time.monotonic())
         if column is not None:
             self._in_flight.begin(column)
         try:
@@ -180,6 +193,8 @@ class Operators:
             stack.set_faults({**self._plan.faults, **arg["set"]})
             if arg["lasts"] is not None and not self._stop.wait(arg["lasts"]):
                 stack.set_faults(self._plan.faults)
+        elif kind == "policy":
+            return policy.call(stack, arg, CALL_TIMEOUT_S)
         elif kind == "clear":
             ros.call(Trigger, stack.name("clear_fault"), Trigger.Request(), CALL_TIMEOUT_S, 5.0)
         elif kind in _DRIVE_SERVICES:

@@ -6,7 +6,9 @@ requests, loco commands, streams, body faults, clears from two or three clients;
 about 25 s by the scenario's length), then the *setup* brings the node to the aimed row (a mode, FAULT, or a
 transition kept long by injected delays), then the *column* action (a mode call, a loco command, a stream)
 starts once the row is reached; the e-stop goes out when both hold (or at the deadline: the landing is
-whatever was observed then, never the aim). Some scenarios also SIGKILL the node during the noise and start
+whatever was observed then, never the aim). A policy column's setup loads a walking policy and shadows it in the
+row (IDLE, HIGH_LEVEL), or engages it from HIGH_LEVEL (the LOW_LEVEL rows); the noise calls the policy's lifecycle
+verbs at random too (chaos/policy.py). Some scenarios also SIGKILL the node during the noise and start
 a fresh one, and some send a second e-stop after the first.
 
 Every scenario runs one of LOW_LEVEL's two paths (``low_level_path``), by the parity of its seed, so that any run
@@ -35,6 +37,7 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
+from chaos import policy
 from chaos.coverage import REQUIRED
 from g1_mode_manager.protocol import api_ids
 
@@ -58,8 +61,8 @@ TRANSITION_DELAY_S = (1.0, 2.5)
 MODES = ("idle", "high_level", "low_level")
 LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand", "lie_to_stand", "damp")
 #: Noise actions, with their weights: mode requests, loco commands, /cmd_vel, arm and joint streams, a body
-#: fault made true in the sim, an operator's clear_fault.
-KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear")
+#: fault made true in the sim, an operator's clear_fault, a policy's lifecycle verb.
+KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear", "policy")
 STREAMS = ("drive", "arm", "lowcmd")
 BODY_FAULTS = ("push", "overheat", "battery", "remote", "freeze")
 #: How long a transient body fault (a held key, a frozen stream) lasts, s.
@@ -156,6 +159,8 @@ def _noise(rng: random.Random, length: str) -> tuple[list[tuple[float, int, str,
             arg = rng.choice(LOCO)
         elif kind in STREAMS:
             arg = round(rng.uniform(0.3, 1.5), 2)
+        elif kind == "policy":
+            arg = policy.noise_verb(rng)
         elif kind == "body":  # after the node's first connect: before it, no check acts
             arg = _body_fault(rng)
             at = max(at, round(rng.uniform(1.8, 2.6), 3))
@@ -270,8 +275,19 @@ def _user_ctrl_setup(row: str, column: str, rng: random.Random,
     return [], None, rng.random() < 0.25
 
 
+def _policy_setup(row: str, path: str, rng: random.Random, delays: dict[str, Any]) -> list[tuple[float, str, Any]]:
+    """The setup of a policy column: the row's mode (HIGH_LEVEL for the LOW_LEVEL rows: the engage enters
+    LOW_LEVEL), then the policy's steps; into LOW_LEVEL kept long by the robot as for a mode request."""
+    if row == "->LOW_LEVEL":
+        if path == "user_ctrl":
+            _delay(delays, rng, api_ids.LOCO_SWITCH_TO_USER_CTRL)
+        else:
+            _delay(delays, rng, api_ids.MS_CHECK_MODE, api_ids.MS_RELEASE_MODE)
+    return [(0.0, "mode", "idle" if row == "IDLE" else "high_level"), *policy.setup_steps(row, rng)]
+
+
 def _column_action(column: str, row: str, rng: random.Random) -> tuple[str, Any] | None:
-    if column == "nothing":
+    if column in ("nothing", "policy"):  # a policy is put at work by the setup (_policy_setup)
         return None
     if column == "mode call":
         # in a settled row: a request that is refused or starts a transition; the e-stop goes out with it
@@ -284,11 +300,15 @@ def _column_action(column: str, row: str, rng: random.Random) -> tuple[str, Any]
     return (kind, 3.0)
 
 
-def _gantry(row: str, rng: random.Random, setup: list[tuple[float, str, Any]]) -> bool:
+def _gantry(row: str, rng: random.Random, setup: list[tuple[float, str, Any]], path: str) -> bool:
     """Hung in the gantry, or free. LOW_LEVEL is limp on the release path, and on the user_ctrl path the
     operators' stream holds one joint (the others damped): a free robot falls within a second there, and a body
-    check turns the aimed row into FAULT; so a row in or into LOW_LEVEL, or a setup through it, is aimed at hung."""
-    through_low = ("mode", "low_level") in [(kind, arg) for _, kind, arg in setup]
+    check turns the aimed row into FAULT; so a row in or into LOW_LEVEL, or a setup through it, is aimed at hung.
+    A policy engaged on the user_ctrl path balances the robot it drives: there, free half of the time."""
+    steps = [(kind, arg) for _, kind, arg in setup]
+    if ("policy", "engage") in steps and path == "user_ctrl":
+        return rng.random() < 0.5
+    through_low = ("mode", "low_level") in steps or ("policy", "engage") in steps
     return row in ("LOW_LEVEL", "->LOW_LEVEL") or through_low or rng.random() < 0.5
 
 
@@ -313,13 +333,19 @@ def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS), paths: tuple[str,
     kill_at = None
     if noise and rng.random() < 0.15:
         kill_at = round(rng.uniform(0.2, setup_at), 3)
-    setup, stream_s, damp_on_silence = _user_ctrl_setup(row, column, rng, delays) if path == "user_ctrl" else ([], None,
-                                                                                                          False)
+    if column == "policy":
+        setup, stream_s, damp_on_silence = _policy_setup(row, path, rng, delays), None, (
+            path == "user_ctrl" and rng.random() < 0.25)
+    elif path == "user_ctrl":
+        setup, stream_s, damp_on_silence = _user_ctrl_setup(row, column, rng, delays)
+    else:
+        setup, stream_s, damp_on_silence = [], None, False
     setup = setup or _setup(row, rng, delays)
     if path == "user_ctrl":
         # a setup through LOW_LEVEL needs a firmware that takes the switch; elsewhere the noise's requests for
         # LOW_LEVEL meet every firmware
-        through_low = ("mode", "low_level") in [(kind, arg) for _, kind, arg in setup] and row != "->LOW_LEVEL"
+        steps = [(kind, arg) for _, kind, arg in setup]
+        through_low = (("mode", "low_level") in steps or ("policy", "engage") in steps) and row != "->LOW_LEVEL"
         faults |= {"user_ctrl": "either" if through_low else rng.choice(FIRMWARES),
                    "user_ctrl_delay_s": round(rng.uniform(*USER_CTRL_DELAY_S) * (0.6 if through_low else 1.0), 3)}
     drive_rng = random.Random(seed ^ DRIVE_SALT)
@@ -337,6 +363,6 @@ def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS), paths: tuple[str,
     second = round(rng.uniform(0.0, 1.5), 3) if rng.random() < 0.25 else None
     vias = ["service", "service", "topic_reliable", "topic_best_effort"]
     return Plan(seed, faults, actions, aim, _column_action(column, row, rng), setup_at, rng.choice(vias), damp_fails,
-                length=length, gantry=_gantry(row, rng, setup), kill_at=kill_at, second_estop_after=second,
+                length=length, gantry=_gantry(row, rng, setup, path), kill_at=kill_at, second_estop_after=second,
                 second_via=rng.choice(vias), path=path, node_params=node_params,
                 planner_command=(command[0], command[1], command[2]), script=script, race=race)

@@ -15,6 +15,7 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
+from chaos import policy
 from chaos.drivers import DriveLog, judge_drivers, judge_ramps
 from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.protocol import api_ids
@@ -47,6 +48,8 @@ class Claims:
     restarts: list[tuple[float, float]] = field(default_factory=list)
     modes: list[tuple[float, Any]] = field(default_factory=list)  # (t, Mode msg)
     drives: DriveLog = field(default_factory=DriveLog)  # the hand-overs, take-overs and planner streams
+    policy: list[tuple[float, str, str]] = field(default_factory=list)  # (t, phase, last_fault) of ~/policy/status
+    engages: list[float] = field(default_factory=list)  # when each policy engage was sent
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
@@ -132,6 +135,7 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any], path: 
     bad += _judge_restarts(events, claims.restarts)
     bad += judge_drivers(events, modes, claims.drives, claims.restarts, GRACE_S)
     bad += judge_ramps(events, claims.drives)
+    bad += policy.judge(events, claims.engages)
     return bad
 
 

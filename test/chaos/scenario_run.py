@@ -20,6 +20,7 @@ from g1_mode_manager_msgs.msg import Mode
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
 
+from chaos import policy
 from chaos.coverage import Coverage, InFlight, Landing, row_of
 from chaos.drivers import DriveLog, drive_cells
 from chaos.operators import Operators
@@ -98,6 +99,7 @@ class ScenarioRun:
             with claims.lock:
                 claims.restarts = [(t_kill, next((t for t in ops.mode_calls if t > t_kill), float("inf")))
                                    for t_kill, _ in claims.restarts]
+                claims.engages = list(ops.engage_calls)
             first_damp = next((e["t"] for e in events if e["k"] == "req" and e["t"] >= claims.t_estop
                                and e.get("api") == 7101 and e.get("p") == DAMP), None)
             if first_damp is not None and landing.connected and not claims.restarts:
@@ -138,7 +140,7 @@ class ScenarioRun:
                 ops.node_checked.set()
             if _row(claims) == row and (not scripted or ops.setup_done.is_set()):
                 ops.row_reached.set()
-                if column in in_flight.columns():
+                if column in _columns(claims, in_flight):
                     break
                 if not sent:
                     sent = ops.send_column()
@@ -146,7 +148,7 @@ class ScenarioRun:
                         continue  # the e-stop goes out now if the request is still unanswered
             in_flight.wait(0.002)
         ops.node_checked.set()  # the row was reached during the noise: the setup goes on with this node
-        if column in ("nothing", "stream"):  # somewhere inside it, not only at its start
+        if column in ("nothing", "stream", "policy"):  # somewhere inside it, not only at its start
             time.sleep(rng.uniform(0.0, 0.3))
         return self._landing(claims, in_flight)
 
@@ -155,7 +157,7 @@ class ScenarioRun:
         with claims.lock:  # the node that gets the e-stop: the one started after the last kill
             since = claims.restarts[-1][0] if claims.restarts else float("-inf")
             connected = any(m.mode != Mode.UNINITIALIZED for t, m in claims.modes if t > since)
-        return Landing(_row(claims), in_flight.columns(), connected)
+        return Landing(_row(claims), _columns(claims, in_flight), connected)
 
     def _estop(self, via: str, claims: Claims, *, first: bool) -> None:
         t = time.monotonic()
@@ -248,7 +250,17 @@ class ScenarioRun:
                 *(["hung in the gantry"] if p.gantry else []),
                 *(["user control damping on silence"] if "user_ctrl_silence:=damp" in p.node_params else []),
                 *([f"{p.race} with the e-stop"] if p.race is not None else []),
-                *drive_cells(events, claimed, claims.drives, claims.t_estop)]
+                *drive_cells(events, claimed, claims.drives, claims.t_estop),
+                *policy.features(events, claims.policy)]
+
+
+def _columns(claims: Claims, in_flight: InFlight) -> tuple[str, ...]:
+    """What the operators have in flight, with "policy" while the node that gets the e-stop shows one at work."""
+    columns = in_flight.columns()
+    with claims.lock:
+        since = claims.restarts[-1][0] if claims.restarts else float("-inf")
+        working = policy.at_work(claims.policy, since)
+    return (*(c for c in columns if c != "nothing"), "policy") if working else columns
 
 
 def _row(claims: Claims) -> str:

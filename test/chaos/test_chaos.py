@@ -11,7 +11,7 @@ the topic (reliable or best effort), sometimes followed by a second one. Scenari
 (release and user control; G1_CHAOS_PATHS keeps one), each node started with its scenario's. See scenario.judge for
 the invariants.
 
-CI runs a fixed-seed batch of short scenarios (G1_CHAOS_N, default 30: every cell aimed at once) in
+CI runs a fixed-seed batch of short scenarios (G1_CHAOS_N, default 30: 30 of the 33 cells aimed at once) in
 G1_CHAOS_PARTS parts (default 2: seeds split in consecutive ranges, each part with its own bridge);
 `make chaos N=500 SEED=...` runs one part of every length (G1_CHAOS_LENGTHS). A part prints its coverage
 table, then its last line:
@@ -32,7 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from g1_mode_manager_msgs.msg import Mode
+from g1_mode_manager_msgs.msg import Mode, PolicyStatus
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Bool
 from std_srvs.srv import Trigger
@@ -72,6 +72,8 @@ class Endpoints:
     def __init__(self, ros: RosClient, ns: str) -> None:
         self.claims = Claims()
         self.mode_sub = ros.node.create_subscription(Mode, f"{ns}/g1_mode_manager/mode", self._on_mode, MODE_QOS)
+        self.policy_sub = ros.node.create_subscription(PolicyStatus, f"{ns}/g1_mode_manager/policy/status",
+                                                       self._on_policy, MODE_QOS)
         self.estop_client = ros.node.create_client(Trigger, f"{ns}/g1_mode_manager/estop")
         self.estop_pubs = {
             "topic_reliable": ros.node.create_publisher(Bool, f"{ns}/estop", QoSProfile(depth=10)),
@@ -83,6 +85,11 @@ class Endpoints:
         claims = self.claims
         with claims.lock:
             claims.modes.append((time.monotonic(), msg))
+
+    def _on_policy(self, msg: PolicyStatus) -> None:
+        claims = self.claims
+        with claims.lock:
+            claims.policy.append((time.monotonic(), msg.phase, msg.last_fault))
 
 
 def _start_node(k: int, params: tuple[str, ...]):

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
-from chaos.coverage import DRIVE_REQUIRED, REQUIRED, Coverage, Landing
+from chaos import policy as chaos_policy
+from chaos.coverage import DRIVE_REQUIRED, POLICY_ROWS, REQUIRED, Coverage, Landing
 from chaos.drivers import AUTONOMY_LIMITS, PLANNER, source_of
 from chaos.plan import FIRMWARES, PATHS, SCRIPTS, SETUP, TRANSITION_DELAY_S, USER_STREAM, plan
 from chaos.scenario import Claims, judge
 from g1_mode_manager.protocol import api_ids
+from support.holosoma import POLICY_KP_MAX
 
 
 def test_any_run_of_consecutive_seeds_as_long_as_the_cell_list_aims_at_every_cell() -> None:
@@ -33,8 +35,11 @@ def test_the_user_ctrl_path_plays_a_firmware_and_keeps_the_switches_long_where_i
         setup = [(kind, arg) for _, who, kind, arg in p.actions if who == SETUP]
         streamed = [arg for _, who, kind, arg in p.actions if who == USER_STREAM and kind == "lowcmd"]
         if p.aim[0] == "->LOW_LEVEL":
-            assert setup[-1] == ("mode", "low_level") and p.faults["delay_s"][into][0] >= TRANSITION_DELAY_S[0]
-        if p.aim[0] == "LOW_LEVEL":  # held by a stream, or by damping on silence where nothing may be in flight
+            assert setup[-1] in (("mode", "low_level"), ("policy", "engage"))
+            assert p.faults["delay_s"][into][0] >= TRANSITION_DELAY_S[0]
+        if p.aim == ("LOW_LEVEL", "policy"):  # held by the policy's own frames
+            assert setup[-1] == ("policy", "engage") and not streamed
+        elif p.aim[0] == "LOW_LEVEL":  # held by a stream, or by damping on silence where nothing may be in flight
             assert streamed or (p.aim[1] == "nothing" and "user_ctrl_silence:=damp" in p.node_params)
         if setup[:1] == [("mode", "low_level")] and len(setup) == 3:  # a way out of LOW_LEVEL after a pause
             assert setup[1][0] == "pause" and streamed and p.gantry
@@ -54,8 +59,15 @@ def test_a_plan_is_its_seed() -> None:
 def test_aims_set_up_what_they_aim_at() -> None:
     for seed in range(300):
         p = plan(seed)
-        row, _ = p.aim
+        row, column = p.aim
         setup = [(kind, arg) for _, who, kind, arg in p.actions if who == SETUP]
+        if column == "policy":  # the row's mode (HIGH_LEVEL to engage from), a walking policy loaded and shadowed
+            assert setup[0] == ("mode", "idle" if row == "IDLE" else "high_level")
+            verbs = [arg.partition(":")[0] for kind, arg in setup if kind == "policy"]
+            assert verbs == ["load", "shadow", *(["engage"] if "LOW_LEVEL" in row else [])]
+            if row == "HIGH_LEVEL":
+                assert p.script in SCRIPTS
+            continue
         if row == "UNINITIALIZED":  # nothing may connect the node before the e-stop
             assert p.actions == [] and p.kill_at is None
         if row in ("IDLE", "LOW_LEVEL"):
@@ -117,7 +129,7 @@ def test_coverage_reports_missing_cells_and_e_stops_before_the_first_connect() -
         cov.add(Landing("UNINITIALIZED", ("nothing",), connected=False))
     assert any("after the first connect" in why for why in cov.shortfalls())
     table = cov.table()
-    assert "n/a" in table.splitlines()[7] and "29 of 29 cells hit" in table
+    assert "n/a" in table.splitlines()[7] and f"{len(REQUIRED)} of {len(REQUIRED)} cells hit" in table
 
 
 def _mode(value: int, name: str, *, t: float) -> tuple[float, SimpleNamespace]:
@@ -161,3 +173,27 @@ def test_a_killed_nodes_fault_claim_that_arrives_after_the_kill_is_judged_in_its
     # a node that claims FAULT and then UNINITIALIZED in its own life is still flagged
     own_life = [_mode(5, "FAULT", t=2.0), _mode(0, "UNINITIALIZED", t=2.5), _mode(4, "EMERGENCY", t=9.0)]
     assert any("FAULT left to UNINITIALIZED" in why for why in _judged([], [(5.0, 8.0)], own_life))
+
+
+def test_a_policy_is_aimed_at_where_it_can_be_at_work_and_called_in_the_noise() -> None:
+    assert {cell for cell in REQUIRED if cell[1] == "policy"} == {(row, "policy") for row in POLICY_ROWS}
+    assert len(REQUIRED) % 2 == 1  # else a cell's path would be fixed by its index
+    plans = [plan(s, ("medium",)) for s in range(200)]
+    verbs = {arg.partition(":")[0] for p in plans for _, who, kind, arg in p.actions if kind == "policy" and who != SETUP}
+    assert verbs == {"load", "shadow", "engage", "disengage", "hold", "unload"}
+
+
+def test_the_judge_sees_a_frame_of_the_policys_stiffness_before_any_engage() -> None:
+    frame = {"k": "frame", "topic": "user_lowcmd", "t": 3.0, "kp_max": POLICY_KP_MAX, "why": "", "ok": True}
+    assert chaos_policy.judge([frame], engages=[2.5]) == []
+    bad = chaos_policy.judge([frame], engages=[3.5])
+    assert bad and "before any engage" in bad[0]
+    assert chaos_policy.judge([frame | {"kp_max": 40.0}], engages=[]) == []
+
+
+def test_a_policy_counts_as_at_work_from_its_shadow_on_in_the_node_that_gets_the_e_stop() -> None:
+    statuses = [(1.0, "loaded", ""), (2.0, "shadow", ""), (3.0, "running", "")]
+    assert chaos_policy.at_work(statuses, since=0.0)
+    assert not chaos_policy.at_work(statuses[:1], since=0.0)
+    assert not chaos_policy.at_work(statuses, since=3.5)  # a killed node's status says nothing of its successor
+    assert not chaos_policy.at_work([*statuses, (4.0, "loaded", "the policy failed")], since=0.0)
