@@ -136,6 +136,14 @@ def test_faults_parse_all_keys() -> None:
     assert parse_faults("") == parse_faults("{}")
 
 
+
+def test_every_fault_key_is_in_the_docs_fault_table() -> None:
+    from g1_sim.bridge import faults
+
+    table = (Path(__file__).parents[2] / "docs" / "sim.md").read_text().split("## Faults", 1)[1]
+    documented = set(re.findall(r"^\| `(\w+)` \|", table, re.MULTILINE))
+    assert documented >= faults._KEYS, f"fault keys missing from docs/sim.md's table: {sorted(faults._KEYS - documented)}"
+
 @pytest.mark.parametrize(
     "text",
     ["{", "[]", '{"dely_s": {}}', '{"delay_s": {"x": 1}}', '{"delay_s": {"1002": -1}}', '{"drop": 7101}',
