@@ -12,7 +12,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
-from g1_mode_manager.protocol.api_ids import ERR_CLIENT_API_TIMEOUT, ERR_CLIENT_SEND, describe_code
+from g1_mode_manager.protocol.api_ids import (
+    ERR_CLIENT_API_TIMEOUT,
+    ERR_CLIENT_SEND,
+    ERR_REFUSED_IN_STATE,
+    describe_code,
+)
 from g1_mode_manager.protocol.body_fields import BodyFields
 from g1_mode_manager.protocol.odom_fields import OdomFields
 
@@ -45,6 +50,11 @@ class RobotError(Exception):
     def transport(self) -> bool:
         """Lost on the way (not sent, or the answer lost), not refused by the robot: sending again may work."""
         return self.not_sent or self.maybe_delivered
+
+    @property
+    def refused_in_state(self) -> bool:
+        """The robot took the call and refused it in its current state (e.g. a Move to a damped robot)."""
+        return self.code == ERR_REFUSED_IN_STATE
 
 
 @runtime_checkable

@@ -101,6 +101,9 @@ class CmdVelRelay:
         self._move_in_flight = False  # a Move was written and its answer is awaited
         self._stop_reason: str | None = None  # a StopMove is owed
         self._stop_attempts = 0
+        #: forwarding stopped by a stop (EMERGENCY, FAULT) that damps the robot: a StopMove still goes out, since it
+        #: stops a walking robot whose Damp failed, and the damped robot's refusal of it is expected
+        self._after_stop = False
         self._last_ack: float | None = None  # when the robot acknowledged the last Move
         self._last_send = -math.inf
         self._tokens = float(MOVE_BURST)  # the Move budget (token bucket, refilled at max_rate_hz)
@@ -239,6 +242,7 @@ class CmdVelRelay:
             if forward and v is not None:
                 reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
                 self._move_in_flight = reply is not None
+        self._after_stop = decision.mode in (Mode.EMERGENCY, Mode.FAULT)
         if not forward:
             self.sources.forget_all()
             if not decision.allowed and untaken:
@@ -319,6 +323,13 @@ class CmdVelRelay:
         try:
             self._port.set_velocity(0.0, 0.0, 0.0, self._move_duration_s)
         except RobotError as exc:
+            if exc.refused_in_state and self._after_stop:
+                self._events.log("info", "stop_move_after_stop", f"StopMove ({self._stop_reason}) refused by the "
+                                 f"robot in its stop's damping ({exc.code}), as expected: the stop damps it")
+                self._maybe_moving = False
+                self._stop_reason = None
+                self._stop_attempts = 0
+                return True
             self._events.count("rpc_failures")
             if exc.transport and self._stop_attempts < STOP_ATTEMPTS:
                 self._events.log("error", "stop_move_failed",

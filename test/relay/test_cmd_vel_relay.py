@@ -275,3 +275,30 @@ def test_ramp_steps_every_50_ms_a_steady_move_at_the_keep_alive_and_the_watchdog
     clock.advance(0.011)
     relay.step()
     assert _moves(port)[-1] == STOP  # the watchdog's StopMove, 1 ms after its deadline
+
+
+@pytest.mark.parametrize("stop", [Mode.EMERGENCY, Mode.FAULT])
+def test_a_stop_move_refused_by_the_robot_a_stop_damped_is_expected_not_an_error(events, logs, clock, stop) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    port.fail_stream["set_velocity"] = api_ids.ERR_REFUSED_IN_STATE  # the Damp reached the robot first
+    gate.mode = stop
+    _run(relay, clock, 4)
+    assert _moves(port)[1:] == [STOP]  # still sent once (it stops a robot whose Damp failed), never repeated
+    assert not [text for level, text in logs if level == "error"]
+    assert any(level == "info" and "as expected" in text for level, text in logs)
+
+
+def test_a_stop_move_refused_outside_a_stop_is_still_an_error(events, logs, clock) -> None:
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    relay.submit(0.5, 0.0, 0.0)
+    relay.step()
+    port.fail_stream["set_velocity"] = api_ids.ERR_REFUSED_IN_STATE
+    gate.mode = Mode.IDLE
+    _run(relay, clock, 4)
+    assert any(level == "error" and "StopMove" in text for level, text in logs)
