@@ -45,6 +45,9 @@ MOVE_BURST = 2
 STOP_ATTEMPTS = 5
 #: A transition out of HIGH_LEVEL waits at most this long for the StopMove before its first robot call (s).
 STOP_WAIT_S = 3.0
+#: A keep-alive this close to its period counts as due: a wake is never exactly on time, and a step that judged one
+#: a hair early would put it off a whole period (s).
+KEEP_ALIVE_SLACK_S = 0.002
 
 
 @dataclass(frozen=True)
@@ -213,7 +216,9 @@ class CmdVelRelay:
         source = self._source
         ramping = source.target != source.limiter.current  # a racy read: at worst one step early or late
         now = self._clock()
-        due = last_step + (self._ramp_s if ramping else self._period_s)
+        # the keep-alive counts from the last write, not from the last step's start: a step that began a period
+        # after the previous one comes a little less than a period after its write, and would skip a period
+        due = last_step + self._ramp_s if ramping else max(last_step, self._last_send) + self._period_s
         deadline = source.watchdog.deadline()
         if deadline is not None and now < deadline < due:
             due = deadline + 0.001  # just past it: the step sees the watchdog expired
@@ -269,7 +274,8 @@ class CmdVelRelay:
         v = source.limiter.propose(target, dt)
         if in_dead_band(v) and in_dead_band(target):
             return None, "command below the robot's dead band (0.1)"
-        if self._last_ack is not None and v == source.limiter.current and now - self._last_send < self._period_s:
+        if (self._last_ack is not None and v == source.limiter.current
+                and now - self._last_send < self._period_s - KEEP_ALIVE_SLACK_S):
             return None, None
         return v, None
 

@@ -302,3 +302,28 @@ def test_a_stop_move_refused_outside_a_stop_is_still_an_error(events, logs, cloc
     gate.mode = Mode.IDLE
     _run(relay, clock, 4)
     assert any(level == "error" and "StopMove" in text for level, text in logs)
+
+
+def test_the_keep_alive_goes_out_every_period_when_the_write_comes_after_the_steps_start(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock, timeout_s=60.0)
+    sent: list[float] = []
+    send, plan = port.send_velocity, relay._plan
+
+    def slow_plan(*args):  # the step's work between its clock reading and the write (the plan, the gate)
+        planned = plan(*args)
+        clock.advance(0.0003)
+        return planned
+
+    def send_at(*args):
+        sent.append(clock())
+        return send(*args)
+
+    relay._plan, port.send_velocity = slow_plan, send_at
+    relay.submit(0.3, 0.0, 0.0)
+    for _ in range(80):
+        last_step = clock()
+        relay.step()
+        clock.advance(relay._next_step_in(last_step) + 0.0001)  # the sender's wake, a little late
+    steady = [b - a for a, b in itertools.pairwise(sent[10:])]  # past the ramp (0.3 m/s at 1 m/s^2)
+    assert steady and max(steady) < 1.5 * PERIOD, steady
