@@ -93,13 +93,16 @@ class Operators:
                 reply = self.act(kind, arg)
             # a setup's policy verb refused (a transition of the noise still in progress, a shadow without fresh
             # targets yet) is asked again likewise
-            while (k == SETUP and kind == "policy" and reply is not None and not reply.success
-                   and "already" not in reply.message):
+            while (k == SETUP and kind == "policy" and arg in policy.RETRIED and reply is not None
+                   and not reply.success and "already" not in reply.message):
                 if time.monotonic() > until or self._stop.wait(0.5):
                     break
                 if fault_claimed():
                     self._clear(fault_claimed)
                 reply = self.act(kind, arg)
+            if k == SETUP and kind == "policy" and arg in policy.RETRIED and reply is not None and not reply.success:
+                # why the aim may miss its cell
+                print(f"chaos seed {self._plan.seed}: the setup's policy {arg} refused: {reply.message}", flush=True)
             until = time.monotonic() + HAND_OVER_RETRY_S
             while (k == SETUP and kind == "hand_over" and reply is not None and reply.success is False
                    and "odometry" in reply.message):

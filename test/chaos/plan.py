@@ -64,6 +64,11 @@ LOCO = ("stand_up", "start", "zero_torque", "squat", "balance_stand", "lie_to_st
 #: fault made true in the sim, an operator's clear_fault, a policy's lifecycle verb.
 KINDS = ("mode", "mode", "loco", "drive", "arm", "lowcmd", "body", "body", "clear", "policy")
 STREAMS = ("drive", "arm", "lowcmd")
+#: The noise before a policy is engaged for a LOW_LEVEL row: what leaves the robot standing as it booted. The engage
+#: is refused while the policy's shadow disagrees with the measured pose (a robot damped, fallen, squatting or with
+#: its arms raised), so the rest of the noise would turn most such aims into a refusal.
+CALM_KINDS = ("mode", "mode", "drive", "clear", "policy")
+CALM_MODES = ("idle", "high_level")
 BODY_FAULTS = ("push", "overheat", "battery", "remote", "freeze")
 #: How long a transient body fault (a held key, a frozen stream) lasts, s.
 TRANSIENT_S = (0.3, 1.5)
@@ -144,17 +149,18 @@ def _body_fault(rng: random.Random) -> dict[str, Any]:
     return {"set": {"freeze_lowstate": True}, "lasts": lasts}
 
 
-def _noise(rng: random.Random, length: str) -> tuple[list[tuple[float, int, str, Any]], float]:
-    """Random operator actions; returns them and when they end."""
+def _noise(rng: random.Random, length: str, calm: bool = False) -> tuple[list[tuple[float, int, str, Any]], float]:
+    """Random operator actions (``calm``: only those that leave the robot standing); returns them and when they
+    end."""
     _, (lo, hi), span, clients = LENGTHS[length]
     count = rng.randint(lo, hi)
     actions = []
     for _ in range(count):
         at = round(rng.uniform(0.05, span), 3)
-        kind = rng.choice(KINDS)
+        kind = rng.choice(CALM_KINDS if calm else KINDS)
         arg: Any = ""
         if kind == "mode":
-            arg = rng.choice(MODES)
+            arg = rng.choice(CALM_MODES if calm else MODES)
         elif kind == "loco":
             arg = rng.choice(LOCO)
         elif kind in STREAMS:
@@ -329,7 +335,8 @@ def plan(seed: int, lengths: tuple[str, ...] = tuple(LENGTHS), paths: tuple[str,
             delays[str(api)] = [0.0, round(rng.uniform(0.1, MAX_DELAY_S[length]), 3)]
     damp_fails = rng.choice([0, 0, 0, 1, 2])
     faults: dict[str, Any] = {"delay_s": delays, "seed": seed, "damp_fails": damp_fails}
-    noise, setup_at = ([], 0.05) if row == "UNINITIALIZED" else _noise(rng, length)
+    calm = column == "policy" and "LOW_LEVEL" in row
+    noise, setup_at = ([], 0.05) if row == "UNINITIALIZED" else _noise(rng, length, calm)
     kill_at = None
     if noise and rng.random() < 0.15:
         kill_at = round(rng.uniform(0.2, setup_at), 3)

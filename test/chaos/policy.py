@@ -29,11 +29,16 @@ NOISE_VERBS = ("load", "load", "shadow", "shadow", "engage", "engage", "disengag
 SHADOW_S = (0.3, 0.8)
 
 
+#: The setup's verbs that are asked again while refused (a shadow without fresh targets yet, a transition of the
+#: noise still under way); the others' refusals stand (nothing to disengage, a policy the noise left at work).
+RETRIED = ("shadow", "engage")
+
+
 def setup_steps(row: str, rng: random.Random) -> list[tuple[float, str, Any]]:
-    """After the setup's mode request: load, shadow, and for a LOW_LEVEL row engage (LOW_LEVEL is entered by the
-    engage itself, by the node's path)."""
-    steps: list[tuple[float, str, Any]] = [(0.0, "policy", f"load:{rng.choice(POLICIES)}"), (0.0, "policy", "shadow"),
-                                           (0.0, "pause", round(rng.uniform(*SHADOW_S), 3))]
+    """After the setup's mode request: whatever the noise left at work stopped, a fresh load, its shadow, and for a
+    LOW_LEVEL row the engage (LOW_LEVEL is entered by the engage itself, by the node's path)."""
+    steps: list[tuple[float, str, Any]] = [(0.0, "policy", "disengage"), (0.0, "policy", f"load:{rng.choice(POLICIES)}"),
+                                           (0.0, "policy", "shadow"), (0.0, "pause", round(rng.uniform(*SHADOW_S), 3))]
     if row in ("LOW_LEVEL", "->LOW_LEVEL"):
         steps.append((0.0, "policy", "engage"))
     return steps

@@ -64,7 +64,7 @@ def test_aims_set_up_what_they_aim_at() -> None:
         if column == "policy":  # the row's mode (HIGH_LEVEL to engage from), a walking policy loaded and shadowed
             assert setup[0] == ("mode", "idle" if row == "IDLE" else "high_level")
             verbs = [arg.partition(":")[0] for kind, arg in setup if kind == "policy"]
-            assert verbs == ["load", "shadow", *(["engage"] if "LOW_LEVEL" in row else [])]
+            assert verbs == ["disengage", "load", "shadow", *(["engage"] if "LOW_LEVEL" in row else [])]
             if row == "HIGH_LEVEL":
                 assert p.script in SCRIPTS
             continue
