@@ -22,6 +22,7 @@ from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
 from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
 
 KINDS = ("locomotion", "motion_tracking")
+READY_POSES = ("default", "first_frame")
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,12 @@ class DeployConfig:
     #: stiff_startup_kp / kd); the policy's own where the config gives none
     ready_kp: np.ndarray | None = None
     ready_kd: np.ndarray | None = None
+    #: what a tracking policy's engage blends to: "default" (its default pose, as holosoma holds it before the
+    #: policy starts) or "first_frame" (the clip's first frame)
+    ready_pose: str = "default"
+    #: a tracking policy runs this long at its clip's first time step before the clip plays, s (holosoma's policy
+    #: runs at step 0 until the operator starts the motion)
+    start_hold_s: float = 0.0
     command_ranges: tuple[tuple[float, float], ...] = ((-1.0, 1.0), (-1.0, 1.0), (-1.0, 1.0))  # vx, vy, wz
 
 
@@ -132,7 +139,25 @@ def parse_deploy_config(raw: dict[str, Any], *, name: str, model: Path, metadata
                                     {str(k): float(v) for k, v in (obs.get("scales") or {}).items()}),
         gait_period_s=_positive(name, "gait_period_s", field("gait_period_s", 1.0)),
         command_ranges=_command_ranges(name, field("command_ranges", "none")),
+        ready_pose=_ready_pose(name, field("ready_pose", "default")),
+        start_hold_s=_non_negative(name, "start_hold_s", field("start_hold_s", 0.0)),
     )
+
+
+def _ready_pose(name: str, value: Any) -> str:
+    if value not in READY_POSES:
+        raise ControllerError(f"policy {name}: ready_pose {value!r} is not one of {', '.join(READY_POSES)}")
+    return str(value)
+
+
+def _non_negative(name: str, key: str, value: Any) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ControllerError(f"policy {name}: {key} must be a number, got {value!r}") from None
+    if not (np.isfinite(number) and number >= 0.0):
+        raise ControllerError(f"policy {name}: {key} must be finite and >= 0, got {value!r}")
+    return number
 
 
 def _positive(name: str, key: str, value: Any) -> float:

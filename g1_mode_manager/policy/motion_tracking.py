@@ -248,6 +248,8 @@ class MotionTrackingController:
         self.reference_dq = np.zeros(NUM_JOINTS)  # and speeds (rad/s)
         self.last_action = np.zeros(NUM_JOINTS)
         self._step = 0
+        self._hold_ticks = round(config.start_hold_s * config.rate_hz)
+        self._held = 0  # ticks run at the first time step since activation
 
     def _run(self, obs: np.ndarray, step: int) -> list[np.ndarray]:
         self._time[0, 0] = step
@@ -271,6 +273,7 @@ class MotionTrackingController:
         frame) as the ones to remove from then on."""
         self.last_action = np.zeros(NUM_JOINTS)
         self._step = 0
+        self._held = 0
         self._take_frame(*self._run(self._zero_obs, 0)[1:])
         self._motion_yaw = yaw_of(self._motion_ref)
         self._robot_yaw = yaw_of(self._robot_ref(state))
@@ -287,17 +290,18 @@ class MotionTrackingController:
         return self.reference_q
 
     def ready(self) -> JointTargets:
-        """The clip's first frame, held with the config's ready gains: holosoma blends to it under its stiff
-        startup gains before the clip starts (``get_init_target``, ``stiff_startup_kp``), since the first frame may
-        be far from any standing pose (arms raised) and the policy's own gains do not hold a pose without it."""
+        """The pose the engage blends to before the policy starts, held with the config's ready gains: the default
+        pose (holosoma's flow: a stiff hold of the default pose under ``stiff_startup_kp``, then the policy at the
+        clip's first time step, then the clip), or the clip's first frame."""
         c = self._config
-        first = self._run(self._zero_obs, 0)[1]
+        first = c.default_pose if c.ready_pose == "default" else self._run(self._zero_obs, 0)[1]
         kp = c.kp if c.ready_kp is None else c.ready_kp
         kd = c.kd if c.ready_kd is None else c.ready_kd
         return JointTargets(q=first, dq=self._zeros, tau=self._zeros, kp=kp, kd=kd)
 
     def step(self, state: RobotState, command: Command) -> JointTargets:
-        """One tick at the clip's current time step, then the clock advances (held at the last frame)."""
+        """One tick at the clip's current time step, then the clock advances (held at the first time step for the
+        config's start hold, and at the last frame)."""
         if not self._active:
             raise ControllerError(f"policy {self.name}: stepped while not active")
         c = self._config
@@ -306,7 +310,10 @@ class MotionTrackingController:
             without_yaw(self._robot_ref(state), self._robot_yaw), without_yaw(self._motion_ref, self._motion_yaw)))
         action, *frame = self._run(self._obs.build(values), self._step)
         self._take_frame(*frame)
-        self._step = min(self._step + 1, self.motion_steps)
+        if self._held < self._hold_ticks:
+            self._held += 1
+        else:
+            self._step = min(self._step + 1, self.motion_steps)
         self.last_action = np.clip(action, -c.action_clip, c.action_clip)
         return JointTargets(q=c.default_pose + self.action_scale * self.last_action, dq=self._zeros, tau=self._zeros,
                             kp=c.kp, kd=c.kd)

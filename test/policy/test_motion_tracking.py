@@ -103,6 +103,7 @@ class _Recording:
 
 def test_the_observation_carries_the_previous_inferences_frame_and_targets_scale_the_action() -> None:
     config, model = _config("dance_ppo")
+    config = dataclasses.replace(config, start_hold_s=0.0)
     recording = _Recording(model)
     controller = MotionTrackingController(config, recording)  # type: ignore[arg-type]
     at = sum(TERM_SIZES[t] for t in config.observation.terms[:config.observation.terms.index("motion_command")])
@@ -123,11 +124,19 @@ def test_the_observation_carries_the_previous_inferences_frame_and_targets_scale
                                                                 0.074500870329])
 
 
-def test_progress_rises_to_one_over_the_clip_and_stays_there(ppo: MotionTrackingController) -> None:
+def test_progress_rises_to_one_over_the_clip_after_the_start_hold_and_stays_there(ppo: MotionTrackingController) -> None:
     assert ppo.motion_steps == PPO_DANCE_STEPS  # 131.46 s at 50 Hz
     state = _standing(ppo._config.default_pose)
     ppo.activate(state)
     assert ppo.progress() == 0.0
+    hold = round(ppo._config.start_hold_s * ppo.rate_hz)
+    assert hold == 100  # the shipped configs' 2 s at the first time step
+    first = None
+    for _ in range(hold):
+        ppo.step(state, Command())
+        assert ppo.progress() == 0.0
+        first = ppo.reference_q.copy() if first is None else first
+        assert np.array_equal(ppo.reference_q, first)  # the clip's first frame, tick after tick
     for tick in range(1, ppo.motion_steps + 1):
         ppo.step(state, Command())
         assert ppo.progress() == pytest.approx(tick / ppo.motion_steps)
@@ -145,12 +154,28 @@ def test_targets_pass_the_frame_check_across_the_clip_on_the_reference_pose() ->
     controller = load_policy("dance_fastsac", POLICY_DIR)
     assert isinstance(controller, MotionTrackingController)
     controller.activate(_standing(controller._config.default_pose))
-    for _ in range(controller.motion_steps + 2):
+    for _ in range(round(controller._config.start_hold_s * controller.rate_hz) + controller.motion_steps + 2):
         state = RobotState.of(controller.reference_q, controller.reference_dq, UPRIGHT, np.zeros(3), 0.0)
         targets = controller.step(state, Command())
         assert np.all(np.isfinite(targets.q))
         frame_of(targets)
     assert controller.progress() == 1.0
+
+
+def test_the_engage_blends_to_the_default_pose_or_the_clips_first_frame_under_the_ready_gains() -> None:
+    config, model = _config("dance_ppo")
+    assert config.ready_pose == "default"
+    controller = MotionTrackingController(config, model)
+    ready = controller.ready()
+    assert np.array_equal(ready.q, config.default_pose) and np.array_equal(ready.kp, config.ready_kp)
+    controller = MotionTrackingController(dataclasses.replace(config, ready_pose="first_frame"), model)
+    controller.activate(_standing(config.default_pose))
+    assert np.allclose(controller.ready().q, controller.reference_q)  # activation took the first frame
+    assert np.abs(controller.ready().q - config.default_pose).max() > 1.0  # ppo's clip starts mid-dance
+    name, raw = read_config("dance_ppo")
+    for key, bad in (("ready_pose", "frame_zero"), ("start_hold_s", -1.0), ("start_hold_s", "x")):
+        with pytest.raises(ControllerError, match=key):
+            parse_deploy_config({**raw, key: bad}, name=name, model=model.path, metadata=model.metadata)
 
 
 def test_a_default_pose_of_the_wrong_length_is_refused() -> None:
