@@ -1,5 +1,6 @@
 """The console's ROS side: the mode manager's public topics feed the RobotView, its services are called for the
-pages, and cmd_vel is published on the mode manager's own topic, so its clamps, ramps and watchdog apply.
+pages, and cmd_vel is published on the mode manager's own topic, so its clamps, ramps and watchdog apply. The
+Policy card's topics and services are policy_card.py's; their calls go through the same ``call``.
 
 Service calls never wait in a thread: each answer comes back to the web server's event loop. The mode
 manager's parameters that the page needs (the head LED looks, whether cmd_vel is stamped, its watchdog time)
@@ -26,6 +27,8 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import Imu
 from std_srvs.srv import Trigger
 
+from g1_mode_manager.console.policy_card import PolicyFeed
+from g1_mode_manager.console.policy_view import PolicyView
 from g1_mode_manager.console.robot_view import AUTONOMY_LOOK, DiagStatus, RobotView, mode_fields
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.display.head_led import LedLook
@@ -49,7 +52,8 @@ def _value(p: Any) -> Any:
 
 
 class RosBridge:
-    def __init__(self, node: Node, manager: str, view: RobotView, on_change: Callable[[], None]) -> None:
+    def __init__(self, node: Node, manager: str, view: RobotView, policy_view: PolicyView,
+                 on_change: Callable[[], None]) -> None:
         self.node = node
         self.manager = manager
         self._view = view
@@ -72,6 +76,8 @@ class RosBridge:
                          "clear_fault": node.create_client(Trigger, f"{manager}/clear_fault"),
                          "hand_over": node.create_client(Trigger, f"{manager}/hand_over_to_autonomy"),
                          "take_over": node.create_client(Trigger, f"{manager}/take_over")}
+        self.policy = PolicyFeed(node, manager, self._namespace, policy_view, on_change)
+        self._clients.update(self.policy.clients)
         self._params_client = node.create_client(GetParameters, f"{manager}/get_parameters")
         self._params_pending = False
         self._params_timer = node.create_timer(0.25, self._read_node_params)  # until the node answers

@@ -89,12 +89,15 @@ def _build(node: Node) -> tuple | None:
     """Settings, access and the parts; None (logged) for a configuration that must not start."""
     from g1_mode_manager.console.access import Access, load_token
     from g1_mode_manager.console.messages import MessageRules
+    from g1_mode_manager.console.policy_card import VERBS as POLICY_VERBS
     from g1_mode_manager.console.robot_view import RobotView
     from g1_mode_manager.console.settings import ConsoleSettings
     from g1_mode_manager.console.teleop import Limits, Teleop
     from g1_mode_manager.core.loco_verbs import LOCO_VERBS
     from g1_mode_manager.core.modes import Mode
     from g1_mode_manager.core.recovery import STEPS
+    from g1_mode_manager.policy.builtin import builtin_configs
+    from g1_mode_manager.protocol.motors import JOINT_NAMES
 
     try:
         settings = ConsoleSettings.declare(node)
@@ -104,12 +107,13 @@ def _build(node: Node) -> tuple | None:
         return None
     modes = [m.name.lower() for m in Mode if m is not Mode.UNINITIALIZED]
     verbs = {name: verb.values for name, verb in LOCO_VERBS.items()}
-    rules = MessageRules(modes, verbs, settings.max_message_bytes)
+    rules = MessageRules(modes, verbs, settings.max_message_bytes, policy_verbs=POLICY_VERBS)
     teleop = Teleop(settings.heartbeat_deadline_s, settings.driver_release_s,
                     Limits(settings.max_vx, settings.max_vy, settings.max_wz))
     hello = {"modes": modes, "verbs": {n: None if v is None else [v.start, v.stop - 1] for n, v in verbs.items()},
              "limits": {"max_vx": settings.max_vx, "max_vy": settings.max_vy, "max_wz": settings.max_wz},
-             "recover_steps": list(STEPS)}
+             "recover_steps": list(STEPS), "policy_verbs": list(POLICY_VERBS),
+             "policies": sorted(builtin_configs()), "joints": list(JOINT_NAMES)}
     manager = settings.manager_name(node.get_namespace())
     return node, settings, access, rules, teleop, RobotView(), manager, hello
 
@@ -119,6 +123,7 @@ async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: M
     """Serve until SIGINT or SIGTERM; the exit status (REFUSED if the address cannot be bound)."""
     from g1_mode_manager.console.bridge import RosBridge
     from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
+    from g1_mode_manager.console.policy_view import PolicyView
     from g1_mode_manager.console.server import ConsoleServer
 
     loop = asyncio.get_running_loop()
@@ -126,13 +131,15 @@ async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: M
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
     server_ref: list = []
-    bridge = RosBridge(node, manager, view, lambda: server_ref and loop.call_soon_threadsafe(server_ref[0].changed))
+    policy = PolicyView()
+    bridge = RosBridge(node, manager, view, policy,
+                       lambda: server_ref and loop.call_soon_threadsafe(server_ref[0].changed))
 
     def blocked(now: float) -> str | None:
         return bridge.ready_to_drive() or view.drive_block(now)
 
     publisher = CmdVelPublisher(teleop, settings.publish_rate_hz, blocked, bridge.publish)
-    server = ConsoleServer(settings, access, rules, teleop, view, bridge, publisher, blocked, hello)
+    server = ConsoleServer(settings, access, rules, teleop, view, policy, bridge, publisher, blocked, hello)
     server_ref.append(server)
     started = time.monotonic()
     try:

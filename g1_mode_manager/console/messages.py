@@ -9,6 +9,8 @@ counters show) and a reason. Only these exist:
 * ``set_mode``: ``mode`` (a mode name); ``loco``: ``command`` (a loco verb), ``value`` (int, optional);
   ``estop``; ``clear_fault``; ``recover`` (the recovery sequence: damp, lie_to_stand, balance_stand);
   ``hand_over`` (the autonomy drives) and ``take_over`` (the teleop drives again).
+* ``policy``: ``verb`` (a verb of the node's ~/policy services: load, shadow, engage...), ``policy`` (load only,
+  optional: a built-in name or a deploy config's path; "" or none: the node's default).
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ from typing import Any, Final
 
 #: Longest text message acted on (bytes); the WebSocket itself closes on frames of FRAME_CAP_BYTES.
 MAX_MESSAGE_BYTES: Final = 1024
+#: Longest policy name or deploy config path a page may ask to load (characters).
+MAX_POLICY_CHARS: Final = 256
 #: Refused kinds, each counted on its own.
 MALFORMED, OVERSIZED, UNKNOWN, BAD_VALUE, FLOOD, BUSY = "malformed", "oversized", "unknown", "bad_value", "flood", "busy"
 REFUSAL_KINDS: Final = (MALFORMED, OVERSIZED, UNKNOWN, BAD_VALUE, FLOOD, BUSY)
@@ -78,12 +82,18 @@ class TakeOver:
 
 
 @dataclass(frozen=True)
+class Policy:
+    verb: str
+    policy: str = ""  # load only: "" is the node's default
+
+
+@dataclass(frozen=True)
 class Refused:
     kind: str
     reason: str
 
 
-Command = Teleop | SetMode | Loco | Estop | ClearFault | Recover | HandOver | TakeOver
+Command = Teleop | SetMode | Loco | Estop | ClearFault | Recover | HandOver | TakeOver | Policy
 #: The commands that carry nothing but their type.
 _BARE: Final = {"estop": Estop, "clear_fault": ClearFault, "recover": Recover, "hand_over": HandOver,
                 "take_over": TakeOver}
@@ -123,17 +133,26 @@ def _name(obj: Mapping[str, Any], key: str, allowed: Collection[str]) -> str:
     return value.lower()
 
 
+def _policy_name(obj: Mapping[str, Any], key: str) -> str:
+    value = obj.get(key, "")
+    if not isinstance(value, str) or len(value) > MAX_POLICY_CHARS or not value.isprintable():
+        raise _BadValueError(f"{key} must be a printable string of at most {MAX_POLICY_CHARS} characters")
+    return value.strip()
+
+
 class MessageRules:
-    """Parses messages against the names this console knows (modes, loco verbs and their value ranges)."""
+    """Parses messages against the names this console knows (modes, loco verbs and their value ranges, the
+    policy verbs)."""
 
     def __init__(self, modes: Collection[str], verbs: Mapping[str, range | None],
-                 max_bytes: int = MAX_MESSAGE_BYTES) -> None:
+                 max_bytes: int = MAX_MESSAGE_BYTES, *, policy_verbs: Collection[str] = ()) -> None:
         self._modes = frozenset(m.lower() for m in modes)
         self._verbs = dict(verbs)
+        self._policy_verbs = frozenset(policy_verbs)
         self.max_bytes = max_bytes
         self._fields = {"teleop": {"type", "visible", "focused", "vx", "vy", "wz", "seq"},
                         "set_mode": {"type", "mode"}, "loco": {"type", "command", "value"},
-                        **{kind: {"type"} for kind in _BARE}}
+                        "policy": {"type", "verb", "policy"}, **{kind: {"type"} for kind in _BARE}}
 
     def parse(self, data: str | bytes) -> Command | Refused:
         if isinstance(data, bytes):
@@ -172,4 +191,9 @@ class MessageRules:
             if values is not None and value not in values:
                 raise _BadValueError(f"{command} takes {values.start}..{values.stop - 1}, not {value}")
             return Loco(command, value)
+        if kind == "policy":
+            verb = _name(obj, "verb", self._policy_verbs)
+            if verb != "load" and "policy" in obj:
+                raise _BadValueError(f"only load takes a policy, not {verb}")
+            return Policy(verb, _policy_name(obj, "policy"))
         return _BARE[kind]()

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 STATIC = Path(__file__).resolve().with_name("static")
-#: In the order they run: the plot and teleop helpers before the page's main script.
-SCRIPTS = ("plot.js", "teleop.js", "console.js")
+#: In the order they run: the plot, teleop and policy card helpers before the page's main script.
+SCRIPTS = ("plot.js", "teleop.js", "policy.js", "console.js")
 STYLES = ("console.css",)
 
 

@@ -47,7 +47,9 @@ class DiagStatus:
 
 
 @dataclass
-class _Stamped:
+class Stamped:
+    """A value with the time it arrived: stale after a while, so a silent source shows as a gap, not a value."""
+
     value: Any = None
     at: float = -math.inf
 
@@ -67,21 +69,21 @@ def _number(text: str | None) -> float | None:
 class RobotView:
     history_len: int = 300
     _lock: threading.Lock = field(default_factory=threading.Lock)
-    _mode: _Stamped = field(default_factory=_Stamped)
+    _mode: Stamped = field(default_factory=Stamped)
     _looks: dict[str, LedLook] = field(default_factory=dict)
-    _diag: _Stamped = field(default_factory=_Stamped)  # {"link": (level, message), "odometry": ..., "checks": [...]}
-    _ack: _Stamped = field(default_factory=_Stamped)
-    _autonomy: _Stamped = field(default_factory=_Stamped)  # the autonomy's commanded speed (m/s) while it drives
+    _diag: Stamped = field(default_factory=Stamped)  # {"link": (level, message), "odometry": ..., "checks": [...]}
+    _ack: Stamped = field(default_factory=Stamped)
+    _autonomy: Stamped = field(default_factory=Stamped)  # the autonomy's commanded speed (m/s) while it drives
     _moves_sent: int | None = None
-    _body_tilt: _Stamped = field(default_factory=_Stamped)
-    _odom: _Stamped = field(default_factory=_Stamped)  # (speed m/s, tilt rad)
-    _imu_tilt: _Stamped = field(default_factory=_Stamped)
+    _body_tilt: Stamped = field(default_factory=Stamped)
+    _odom: Stamped = field(default_factory=Stamped)  # (speed m/s, tilt rad)
+    _imu_tilt: Stamped = field(default_factory=Stamped)
     _history: deque = field(default_factory=deque)
 
     # --- what the bridge hands in ------------------------------------------------------------------
     def on_mode(self, fields: dict[str, Any], now: float) -> None:
         with self._lock:
-            self._mode = _Stamped(dict(fields), now)
+            self._mode = Stamped(dict(fields), now)
 
     def set_looks(self, looks: dict[str, LedLook]) -> None:
         with self._lock:
@@ -96,29 +98,29 @@ class RobotView:
                   for name, s in by_name.items() if name.startswith("body ")]
         summary = {"link": by_name.get("robot link"), "odometry": by_name.get("odometry")}
         with self._lock:
-            self._diag = _Stamped({"checks": checks, **{k: None if s is None else (s.level, s.message)
+            self._diag = Stamped({"checks": checks, **{k: None if s is None else (s.level, s.message)
                                                         for k, s in summary.items()}}, now)
             tilt = next((c["value"] for c in checks if c["name"] == "tilt"), None)
             if tilt is not None:
-                self._body_tilt = _Stamped(tilt, now)
+                self._body_tilt = Stamped(tilt, now)
             commands, walking = by_name.get("commands"), by_name.get("walking")
             sent = None if commands is None else _number(commands.values.get("moves_sent"))
             if sent is not None and walking is not None:
                 grew = self._moves_sent is not None and sent > self._moves_sent
                 commanded = _number(walking.values.get("commanded_mps")) or 0.0
-                self._ack = _Stamped(commanded if grew else 0.0, now)
+                self._ack = Stamped(commanded if grew else 0.0, now)
                 self._moves_sent = int(sent)
             driver = by_name.get("driver")
             if driver is not None:
-                self._autonomy = _Stamped(_autonomy_speed(driver.values), now)
+                self._autonomy = Stamped(_autonomy_speed(driver.values), now)
 
     def on_odom(self, vx: float, vy: float, quaternion: tuple[float, float, float, float], now: float) -> None:
         with self._lock:
-            self._odom = _Stamped((math.hypot(vx, vy), tilt_of(*quaternion)), now)
+            self._odom = Stamped((math.hypot(vx, vy), tilt_of(*quaternion)), now)
 
     def on_imu(self, quaternion: tuple[float, float, float, float], now: float) -> None:
         with self._lock:
-            self._imu_tilt = _Stamped(tilt_of(*quaternion), now)
+            self._imu_tilt = Stamped(tilt_of(*quaternion), now)
 
     # --- what the server asks --------------------------------------------------------------------------
     def drive_block(self, now: float) -> str | None:

@@ -6,6 +6,7 @@ when bad; good ones reach the teleop (the dead-man) or a mode manager service, w
 state (mode, health, who drives, a plot sample) goes to every page at state_rate_hz and at once on a change.
 The Recover button's sequence (recovery.py) asks its steps through the same service call as a loco button.
 Handing the robot to the autonomy and taking it back are service calls too; the dead-man is the teleop's alone.
+So are the Policy card's verbs (policy_card.py), whose status, targets and error plot go out with the state.
 """
 
 from __future__ import annotations
@@ -29,6 +30,10 @@ from g1_mode_manager.console.access import Access
 from g1_mode_manager.console.bridge import RosBridge, ServiceUnavailableError, loco_request, set_mode_request, trigger_request
 from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
 from g1_mode_manager.console.page import build_page
+from g1_mode_manager.console.policy_card import ANSWER_TIMEOUT_S as POLICY_TIMEOUT_S
+from g1_mode_manager.console.policy_card import request as policy_request
+from g1_mode_manager.console.policy_card import service as policy_service
+from g1_mode_manager.console.policy_view import PolicyView
 from g1_mode_manager.console.rate_limit import TokenBucket
 from g1_mode_manager.console.recovery import Answer, RecoveryRunner
 from g1_mode_manager.console.robot_view import RobotView
@@ -41,7 +46,7 @@ FRAME_CAP_BYTES = 64 * 1024
 #: How long a service answer may take before the page is told it timed out (s): the e-stop's bound is
 #: estop_timeout_s (10 s) plus one call; a get-up's answer waits up to loco_get_up_timeout_s (12 s).
 ANSWER_TIMEOUT_S = {"estop": 15.0, "set_mode": 30.0, "loco": 20.0, "clear_fault": 5.0, "hand_over": 5.0,
-                    "take_over": 5.0}
+                    "take_over": 5.0, **{policy_service(verb): s for verb, s in POLICY_TIMEOUT_S.items()}}
 #: The commands that call one of the mode manager's Trigger services: the service (the bridge's name for it) and
 #: how the answer names the request.
 TRIGGERS = {m.Estop: ("estop", "E-STOP"), m.ClearFault: ("clear_fault", "clear fault"),
@@ -67,7 +72,7 @@ class _PageSocket:
 
 class ConsoleServer:
     def __init__(self, settings: ConsoleSettings, access: Access, rules: m.MessageRules, teleop: Teleop,
-                 view: RobotView, bridge: RosBridge, publisher: CmdVelPublisher,
+                 view: RobotView, policy: PolicyView, bridge: RosBridge, publisher: CmdVelPublisher,
                  blocked: Callable[[float], str | None], hello: dict[str, Any],
                  clock: Callable[[], float] = time.monotonic) -> None:
         self._s = settings
@@ -75,6 +80,7 @@ class ConsoleServer:
         self._rules = rules
         self._teleop = teleop
         self._view = view
+        self._policy = policy
         self._bridge = bridge
         self._publisher = publisher
         self._blocked = blocked
@@ -161,7 +167,8 @@ class ConsoleServer:
             await ws.send_str(json.dumps({"type": "hello", "you": page.label, **self._hello,
                                           "heartbeat_period_s": HEARTBEAT_PERIOD_S,
                                           "heartbeat_deadline_s": self._s.heartbeat_deadline_s,
-                                          "history": self._view.history()}))
+                                          "history": self._view.history(),
+                                          "policy_history": self._policy.history()}))
             self.changed()  # the others see one more console
             await self._read(page)
         finally:
@@ -207,6 +214,10 @@ class ConsoleServer:
             why_not = self._recovery.start(page.label)
             if why_not:
                 self._refuse(page, m.Refused(m.BUSY, f"recover: {why_not}"), to="recover")
+        elif isinstance(parsed, m.Policy):
+            named = f" {parsed.policy}" if parsed.policy else " (the node's default)" if parsed.verb == "load" else ""
+            self._call(page, policy_service(parsed.verb), policy_request(parsed.verb, parsed.policy),
+                       f"policy {parsed.verb}{named}")
 
     def _count(self, page: _PageSocket, kind: str) -> None:
         page.refused[kind] += 1
@@ -282,11 +293,13 @@ class ConsoleServer:
     async def _send_state(self) -> None:
         now = self._clock()
         blocked = self._blocked(now)
+        t = now - self._started
         common = self._view.snapshot(now)
         common.update(type="state", consoles=len(self._pages), driving=self._teleop.driving(),
                       refused=dict(self.refused), node_params=self._bridge.node_params,
                       recovery=self._recovery.status(),
-                      sample=self._view.sample(now, now - self._started, self._publisher.commanded(now)))
+                      sample=self._view.sample(now, t, self._publisher.commanded(now)),
+                      policy=self._policy.snapshot(now), policy_sample=self._policy.sample(now, t))
         sends = []
         for page in list(self._pages.values()):
             status = asdict(self._teleop.status(page.id, now, blocked))

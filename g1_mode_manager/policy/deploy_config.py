@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +18,7 @@ import yaml
 
 from g1_mode_manager.core.controller.interface import ControllerError
 from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
+from g1_mode_manager.policy.builtin import builtin_configs
 from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
 
 KINDS = ("locomotion", "motion_tracking")
@@ -56,12 +56,6 @@ class DeployConfig:
     #: runs at step 0 until the operator starts the motion)
     start_hold_s: float = 0.0
     command_ranges: tuple[tuple[float, float], ...] = ((-1.0, 1.0), (-1.0, 1.0), (-1.0, 1.0))  # vx, vy, wz
-
-
-def builtin_configs() -> dict[str, Path]:
-    """The policies that ship with the package, by name (the YAML file's stem)."""
-    folder = resources.files("g1_mode_manager.policy") / "configs"
-    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".yaml")}
 
 
 def config_path(policy: str) -> Path:

@@ -1,6 +1,6 @@
 """The console is a client of the mode manager, never a part of it: nothing of the product imports it, and it
 imports nothing of the node, its relays, the robot port or g1ctl (only pure definitions: modes, loco verbs,
-the LED looks, the body's tilt, the ~/mode QoS)."""
+the LED looks, the body's tilt, the ~/mode QoS, the policy phases, the names of the policies that ship)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[2] / "g1_mode_manager"
 CONSOLE = PACKAGE / "console"
 ALLOWED = ("g1_mode_manager.console", "g1_mode_manager.core", "g1_mode_manager.display", "g1_mode_manager.topic_qos",
-           "g1_mode_manager.protocol", "g1_mode_manager.help_flag")
+           "g1_mode_manager.protocol", "g1_mode_manager.help_flag", "g1_mode_manager.policy.builtin")
 
 
 def _imports(path: Path) -> set[str]:

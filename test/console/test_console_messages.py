@@ -17,6 +17,7 @@ from g1_mode_manager.console.messages import (
     HandOver,
     Loco,
     MessageRules,
+    Policy,
     Recover,
     Refused,
     SetMode,
@@ -24,7 +25,8 @@ from g1_mode_manager.console.messages import (
     Teleop,
 )
 
-RULES = MessageRules(["idle", "high_level", "low_level", "emergency"], {"start": None, "speed_mode": range(4)})
+RULES = MessageRules(["idle", "high_level", "low_level", "emergency"], {"start": None, "speed_mode": range(4)},
+                     policy_verbs=("load", "shadow", "engage", "disengage", "hold", "unload"))
 
 
 def teleop(**overrides) -> str:
@@ -43,6 +45,11 @@ def test_the_known_messages_parse() -> None:
     assert RULES.parse('{"type": "recover"}') == Recover()
     assert RULES.parse('{"type": "hand_over"}') == HandOver()
     assert RULES.parse('{"type": "take_over"}') == TakeOver()
+    assert RULES.parse('{"type": "policy", "verb": "load", "policy": " loco_ppo "}') == Policy("load", "loco_ppo")
+    assert RULES.parse('{"type": "policy", "verb": "load", "policy": "/home/me/my policy.yaml"}') == \
+        Policy("load", "/home/me/my policy.yaml")  # a deploy config's path, spaces and all
+    assert RULES.parse('{"type": "policy", "verb": "load"}') == Policy("load", "")  # the node's default
+    assert RULES.parse('{"type": "policy", "verb": "ENGAGE"}') == Policy("engage", "")
     assert RULES.parse(teleop()).held and not RULES.parse(teleop(vx=0, wz=0.0)).held
 
 
@@ -74,6 +81,13 @@ def test_the_known_messages_parse() -> None:
     ('{"type": "loco", "command": "backflip"}', BAD_VALUE),
     ('{"type": "loco", "command": "speed_mode", "value": 4}', BAD_VALUE),
     ('{"type": "loco", "command": "speed_mode", "value": 1.5}', BAD_VALUE),
+    ('{"type": "policy"}', BAD_VALUE),
+    ('{"type": "policy", "verb": "resume"}', BAD_VALUE),  # the loop's own verbs are not the page's
+    ('{"type": "policy", "verb": "engage", "policy": "loco_ppo"}', BAD_VALUE),  # only load takes a policy
+    ('{"type": "policy", "verb": "load", "policy": 5}', BAD_VALUE),
+    ('{"type": "policy", "verb": "load", "policy": "loco_ppo\\n"}', BAD_VALUE),
+    ('{"type": "policy", "verb": "load", "policy": "' + "x" * 257 + '"}', BAD_VALUE),
+    ('{"type": "policy", "verb": "load", "value": 1}', BAD_VALUE),
 ])
 def test_bad_messages_are_refused_with_their_kind(data: str | bytes, kind: str) -> None:
     refused = RULES.parse(data)

@@ -1,6 +1,6 @@
 """The console process on its own (no robot, no mode manager: a stand-in publishes ~/mode, takes cmd_vel and
-serves the drivers' services), spoken to as a browser would over HTTP and a WebSocket: who gets in, what bad
-input does, who drives."""
+serves the drivers' services and some of the policy's), spoken to as a browser would over HTTP and a WebSocket:
+who gets in, what bad input does, who drives, what the policy card calls."""
 
 from __future__ import annotations
 
@@ -248,6 +248,37 @@ def test_hand_over_and_take_over_call_their_services_and_a_page_that_lets_go_lea
         assert answer["success"] and answer["message"] == "stand-in take_over: the teleop drives", answer
         assert manager.called[called:] == ["hand_over_to_autonomy", "take_over"]
         assert wait_until(lambda: page.states()[-1]["mode"]["driver"] == "teleop", 5.0)
+    finally:
+        other.close()
+        page.close()
+
+
+def test_the_policy_card_calls_the_policy_services_and_every_page_sees_the_nodes_words(
+        console: Console, manager: FakeManager) -> None:
+    page, other = RawPage(console.ws_url()), RawPage(console.ws_url())
+    called = len(manager.called)
+    try:
+        hello = page.wait_for(lambda m: m["type"] == "hello")
+        assert hello["policy_verbs"] == ["load", "shadow", "engage", "disengage", "hold", "unload"]
+        assert {"loco_ppo", "loco_fastsac", "dance_ppo", "dance_fastsac"} <= set(hello["policies"])
+        assert len(hello["joints"]) == 29
+        shown = page.wait_for(lambda m: m["type"] == "state")["policy"]
+        assert shown["status"]["phase"] in ("unloaded", "loaded") and shown["joints"] is None
+        page.send({"type": "policy", "verb": "engage", "policy": "loco_ppo"})  # only load names a policy
+        assert page.wait_for(lambda m: m["type"] == "refused")["kind"] == "bad_value"
+        page.send({"type": "policy", "verb": "load", "policy": "dance_ppo"})
+        answer = other.wait_for(lambda m: m["type"] == "answer" and m["to"] == "policy_load")  # every page sees it
+        assert answer["success"] and answer["request"] == "policy load dance_ppo", answer
+        assert answer["message"] == "stand-in: policy dance_ppo loaded"
+        assert wait_until(lambda: other.states()[-1]["policy"]["status"]["policy"] == "dance_ppo", 5.0)
+        assert other.states()[-1]["policy"]["status"]["phase"] == "loaded"
+        page.send({"type": "policy", "verb": "engage"})  # refused by the node: its words, verbatim
+        answer = other.wait_for(lambda m: m["type"] == "answer" and m["to"] == "policy_engage")
+        assert not answer["success"] and answer["message"] == "engage refused: policy is loaded, not shadow; nothing sent"
+        page.send({"type": "policy", "verb": "shadow"})  # a service this stand-in does not serve: tried, said why
+        answer = page.wait_for(lambda m: m["type"] == "answer" and m["to"] == "policy_shadow")
+        assert not answer["success"] and "/g1_mode_manager/policy/shadow is not available" in answer["message"]
+        assert manager.called[called:] == ["policy/load dance_ppo", "policy/engage"]
     finally:
         other.close()
         page.close()

@@ -3,9 +3,11 @@ mode manager and the real sim, judged on the sim's record.
 
 One stack, one console and one browser for the file; the tests run in file order, each leaving the robot as the
 next expects (walking on W, then stopped, then driven by a planner handed the robot on the page and taken back,
-then damped on the floor and got up by the Recover button, then e-stopped during a second recovery). Set
-G1_CONSOLE_SCREENSHOTS=<folder> to also save the page while driving, while a planner drives and in EMERGENCY
-(the pictures: ``console_driving.png``, ``console_autonomy.png``, ``console_emergency.png``).
+then standing under a policy engaged from the Policy card and handed back, then damped on the floor and got up by
+the Recover button, then e-stopped during a second recovery). The node runs with the policy tests' steady bounds
+(STEADY_POLICY), which change nothing outside LOW_LEVEL. Set G1_CONSOLE_SCREENSHOTS=<folder> to also save the page
+while driving, while a planner drives and in EMERGENCY, and the Policy card while the policy drives (the pictures:
+``console_driving.png``, ``console_autonomy.png``, ``console_emergency.png``, ``console_policy.png``).
 """
 
 from __future__ import annotations
@@ -21,9 +23,19 @@ from pathlib import Path
 import pytest
 from geometry_msgs.msg import Twist
 
+from e2e.test_policy import STEADY_POLICY
+from e2e.user_ctrl_session import (
+    STANDING_Z_M,
+    enter_walking,
+    fsm_states,
+    internal_ctrl,
+    lowest_pelvis,
+    no_user_frame_before_1000,
+    wait_at_rest,
+)
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.protocol import api_ids
-from g1_mode_manager.protocol.fsm import BalanceMode, FsmId, FsmMode
+from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, BalanceMode, FsmId, FsmMode, InternalCtrl
 from support.console import (
     Console,
     RawPage,
@@ -34,6 +46,7 @@ from support.console import (
     set_window_state,
     start_console,
 )
+from support.holosoma import POLICY_KP_MAX, policy_frame
 from support.mode_manager import wait_until
 from support.planner import start_planner
 from support.sim_record import SimRecord, damped, fsm_of, is_damp, requests, states, velocity_of
@@ -44,7 +57,7 @@ from .conftest import Stack
 MISSING = browser_missing()
 pytestmark = [pytest.mark.e2e, pytest.mark.sim, pytest.mark.skipif(MISSING is not None, reason=f"no browser: {MISSING}")]
 
-NODE = Settings()  # the mode manager's defaults, which the stack runs with
+NODE = Settings()  # the mode manager's defaults, which the stack runs with (STEADY_POLICY's aside)
 WATCHDOG_S = NODE.cmd_vel_timeout_s
 ONE_RPC_S = NODE.rpc_timeout_s
 DEADLINE_S = 0.3  # the console's heartbeat_deadline_s
@@ -71,7 +84,8 @@ class Rig:
 
 @pytest.fixture(scope="module")
 def rig(module_stack_factory, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Rig]:
-    stack = module_stack_factory(node_params=("odom_rate_hz:=20.0",))  # measured velocity and tilt for the plots
+    # measured velocity and tilt for the plots; the policy's loop out of a loaded machine's way
+    stack = module_stack_factory(node_params=("odom_rate_hz:=20.0", *STEADY_POLICY))
     twists = Twists()
     stack.ros.node.create_subscription(Twist, "/cmd_vel", twists, 100)  # what the console publishes, when
     token_file = tmp_path_factory.mktemp("console") / "token"
@@ -130,17 +144,27 @@ def _moves(record: SimRecord, since: float, *, stop: bool) -> list[dict]:
             and (velocity_of(e) == [0.0, 0.0, 0.0]) == stop]
 
 
-def _shot(r: Rig, name: str, height: int | None = None) -> None:
-    """Save the page as it shows now; ``height``: from its top in a window this tall (the plots too)."""
+def _shot(r: Rig, name: str, height: int | None = None, card: str | None = None) -> None:
+    """Save the page as it shows now; ``height``: from its top in a window this tall (the plots too); ``card``: only
+    the element with this id, scrolled to just below the page's sticky head."""
     if r.shots is None:
         return
+    from selenium.webdriver.common.by import By
+
     r.shots.mkdir(parents=True, exist_ok=True)
     size = r.driver.get_window_size()
     if height is not None:
         r.driver.set_window_size(size["width"], height)
         r.driver.execute_script("window.scrollTo(0, 0)")
         time.sleep(0.5)  # the page draws its plots again on resize
-    r.driver.save_screenshot(str(r.shots / name))
+    if card is None:
+        r.driver.save_screenshot(str(r.shots / name))
+    else:
+        r.driver.execute_script("const c = document.getElementById(arguments[0]);"
+                                "window.scrollTo(0, c.offsetTop - document.getElementById('head').offsetHeight - 8)",
+                                card)
+        time.sleep(0.3)
+        r.driver.find_element(By.ID, card).screenshot(str(r.shots / name))
     if height is not None:
         r.driver.set_window_size(size["width"], size["height"])
 
@@ -327,6 +351,96 @@ def test_a_planner_drives_once_handed_over_on_the_page_a_hidden_page_leaves_it_a
         print(f"TAKE OVER clicked -> StopMove {1000 * (stopped() - t_take):.0f} ms")
     finally:
         planner.stop()
+
+
+def _policy_answered(driver, what: str) -> str:
+    """The Policy card's answer to ``what`` (the click just set it to "sent, waiting"), asserted a success."""
+    answer = _page_shows(driver, "policy-answer", lambda text: text.startswith(f"{what} (") and "success=" in text,
+                         RECORD_WAIT_S)
+    assert "success=true" in answer, answer
+    return answer
+
+
+def _policy_verb(driver, verb: str) -> float:
+    """Click the Policy card's ``verb``; returns the time just before."""
+    return _click(driver, f'button[data-policy-verb="{verb}"]')
+
+
+def _policy_frames(record: SimRecord, since: float) -> list[dict]:
+    """The policy's frames the robot applied on rt/user_lowcmd since ``since`` (its stiffness tells them apart)."""
+    return [e for e in record.events(since) if policy_frame(e) and e["topic"] == "user_lowcmd" and e["ok"]]
+
+
+#: What the page plots (policy.js): the largest |target - measured| of each state, and the joints behind the bars.
+PLOTTED_ERRORS = "return policyCard.history.map((s) => s.err).filter((v) => v !== null && v !== undefined)"
+PLOTTED_JOINTS = "return lastState && lastState.policy ? lastState.policy.joints : null"
+
+
+def test_a_policy_loaded_shadowed_and_engaged_on_the_page_drives_the_robot_and_disengage_leaves_it_standing(
+        rig: Rig) -> None:
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select
+
+    r, d = rig, rig.driver
+    d.get(r.console.url + f"?token={TOKEN}")  # the console the test before the planner's started, with a token
+    _page_shows(d, "policy-phase", lambda text: text == "UNLOADED")
+    modes = r.stack.modes()
+    assert wait_until(lambda: bool(modes), RECORD_WAIT_S)
+    if modes[-1].name == "HIGH_LEVEL":  # where the planner's test left it: walked, stopped by TAKE OVER
+        wait_at_rest(r.stack)
+    else:  # this test on its own
+        enter_walking(r.stack)
+    _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
+
+    Select(d.find_element(By.ID, "policy-name")).select_by_value("loco_ppo")
+    _policy_verb(d, "load")
+    print(_policy_answered(d, "policy load loco_ppo"))
+    _page_shows(d, "policy-phase", lambda text: text == "LOADED")
+    assert _text(d, "policy-loaded") == "loco_ppo" and r.stack.sim.get()["sport"]["fsm_id"] != 1000
+    _policy_verb(d, "shadow")
+    _policy_answered(d, "policy shadow")
+    _page_shows(d, "policy-phase", lambda text: text == "SHADOW")
+    _page_shows(d, "policy-rate", lambda text: text.endswith(" Hz"))
+    # the targets against the measured joints, plotted: the largest difference over time and every joint now
+    assert wait_until(lambda: len(d.execute_script(PLOTTED_ERRORS)) >= 3, RECORD_WAIT_S), d.execute_script(PLOTTED_ERRORS)
+    joints = d.execute_script(PLOTTED_JOINTS)
+    assert joints and len(joints["target"]) == len(joints["measured"]) == 29, joints
+    bound = d.execute_script("return lastState.policy.engage_limit_rad")
+    assert bound == NODE.policy_engage_max_error_rad
+    assert not _policy_frames(r.stack.record, 0.0), "the shadow sent a frame"
+    # ENGAGE once the page shows every joint's target within the node's bound, as an operator would wait for it
+    assert wait_until(lambda: d.execute_script(PLOTTED_ERRORS)[-1] < bound, RECORD_WAIT_S), \
+        d.execute_script(PLOTTED_ERRORS)[-5:]
+
+    t_engage = _policy_verb(d, "engage")
+    print(_policy_answered(d, "policy engage"))
+    print(f"the page: {_page_shows(d, 'policy-phase', lambda text: text in ('BLENDING', 'RUNNING'))}")
+    _page_shows(d, "policy-phase", lambda text: text == "RUNNING", RECORD_WAIT_S)
+    _page_shows(d, "mode-name", lambda text: text == "LOW_LEVEL")
+    assert wait_until(lambda: bool(_policy_frames(r.stack.record, t_engage)), RECORD_WAIT_S), "no policy frame"
+    no_user_frame_before_1000(r.stack.record.events(t_engage), user_kp=POLICY_KP_MAX)
+    time.sleep(3.0 if r.shots else 0.0)  # a few plot points under the policy
+    _shot(r, "console_policy.png", height=1500, card="policy-card")
+
+    t_disengage = _policy_verb(d, "disengage")
+    print(_policy_answered(d, "policy disengage"))
+    _page_shows(d, "policy-phase", lambda text: text == "LOADED", RECORD_WAIT_S)
+    _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
+    standing = lambda: fsm_states(r.stack.record.events(t_disengage))[-1][1] in STANDING_FSM_IDS  # noqa: E731
+    assert wait_until(standing, RECORD_WAIT_S), fsm_states(r.stack.record.events(t_disengage))[-3:]
+    assert internal_ctrl(r.stack.record.events(t_disengage)) == [InternalCtrl.WALKRUN]
+    # the policy's frames have ended: none more on the record while the robot's own controller holds it
+    applied = len(_policy_frames(r.stack.record, t_engage))
+    time.sleep(QUIET_WINDOW_S)
+    assert len(_policy_frames(r.stack.record, t_engage)) == applied, "policy frames after the hand-back"
+    ev = r.stack.record.events(t_engage)
+    print(f"under the policy: {applied} policy frames applied; pelvis at least {lowest_pelvis(ev, t_engage):.2f} m")
+    assert lowest_pelvis(ev, t_engage) > STANDING_Z_M and r.stack.position()[2] > STANDING_Z_M
+    assert r.stack.modes()[-1].name == "HIGH_LEVEL"
+
+    _policy_verb(d, "unload")
+    _policy_answered(d, "policy unload")
+    _page_shows(d, "policy-phase", lambda text: text == "UNLOADED")
 
 
 def _lying_damped(r: Rig) -> None:

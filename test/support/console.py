@@ -201,11 +201,13 @@ class Twists:
 class FakeManager:
     """The mode manager's public face and nothing else: a node named g1_mode_manager with the parameters the
     console reads, ~/mode published at 2 Hz as told, cmd_vel received, and ~/hand_over_to_autonomy and
-    ~/take_over, which change ``driver`` and keep each call's name in ``called``. For console tests without a
-    robot."""
+    ~/take_over, which change ``driver`` and keep each call's name in ``called``; of the policy's services
+    ~/policy/load (it publishes the loaded phase on ~/policy/status) and ~/policy/engage (it refuses), the others
+    left out. For console tests without a robot."""
 
     def __init__(self, mode: str = "HIGH_LEVEL") -> None:
-        from g1_mode_manager_msgs.msg import Mode
+        from g1_mode_manager_msgs.msg import Mode, PolicyStatus
+        from g1_mode_manager_msgs.srv import LoadPolicy
         from geometry_msgs.msg import Twist
         from std_srvs.srv import Trigger
 
@@ -232,6 +234,11 @@ class FakeManager:
         for service, driver in (("hand_over_to_autonomy", "autonomy"), ("take_over", "teleop")):
             self.node.create_service(Trigger, f"~/{service}",
                                      lambda _req, res, service=service, driver=driver: self._drive(service, driver, res))
+        self._policy_pub = self.node.create_publisher(PolicyStatus, "~/policy/status", MODE_QOS)
+        self._policy_msg = PolicyStatus
+        self._policy_pub.publish(PolicyStatus(phase="unloaded", progress=-1.0, tracking_error_rad=-1.0))
+        self.node.create_service(LoadPolicy, "~/policy/load", self._load)
+        self.node.create_service(Trigger, "~/policy/engage", self._refuse_engage)
         self._executor = SingleThreadedExecutor(context=self.context)
         self._executor.add_node(self.node)
         self._thread = threading.Thread(target=self._executor.spin, daemon=True)
@@ -248,6 +255,18 @@ class FakeManager:
         self.driver = driver
         self._publish()  # as the node does: a change of driver goes out at once
         response.success, response.message = True, f"stand-in {service}: the {driver} drives"
+        return response
+
+    def _load(self, request: Any, response: Any) -> Any:
+        self.called.append(f"policy/load {request.policy}")
+        self._policy_pub.publish(self._policy_msg(policy=request.policy or "loco_ppo", phase="loaded", progress=-1.0,
+                                                  tracking_error_rad=-1.0))
+        response.success, response.message = True, f"stand-in: policy {request.policy or 'loco_ppo'} loaded"
+        return response
+
+    def _refuse_engage(self, _request: Any, response: Any) -> Any:
+        self.called.append("policy/engage")
+        response.success, response.message = False, "engage refused: policy is loaded, not shadow; nothing sent"
         return response
 
     def close(self) -> None:

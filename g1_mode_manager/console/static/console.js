@@ -35,6 +35,8 @@ function send(obj) {
   return true;
 }
 
+const policyCard = new PolicyCard({ command });
+
 const teleop = new TeleopInput({ send, stick: $("stick"), knob: $("knob"), onLocalChange: () => renderTeleop() });
 
 function connect() {
@@ -65,6 +67,7 @@ function onHello(msg) {
   buildLocoButtons(msg.verbs);
   recoverSteps = msg.recover_steps || [];
   history = msg.history || [];
+  policyCard.hello(msg);
   teleop.start(msg.heartbeat_period_s);
 }
 
@@ -140,8 +143,8 @@ function onAnswer(msg) {
   const verdict = `success=${msg.success}`;
   const extra = msg.to === "loco" ? ` code=${msg.code}` : "";
   const text = `${msg.request} (${msg.by}, ${msg.after_s} s): ${verdict}${extra}: ${msg.message}`;
-  const id = { estop: "estop-answer", set_mode: "mode-answer", clear_fault: "mode-answer", loco: "loco-answer",
-    hand_over: "drive-answer", take_over: "drive-answer" }[msg.to];
+  const id = msg.to.startsWith("policy_") ? "policy-answer" : { estop: "estop-answer", set_mode: "mode-answer",
+    clear_fault: "mode-answer", loco: "loco-answer", hand_over: "drive-answer", take_over: "drive-answer" }[msg.to];
   const box = $(id);
   box.textContent = text;
   if (id !== "estop-answer") box.className = `answer ${msg.success ? "ok" : "bad"}`;
@@ -203,6 +206,7 @@ function onState(msg) {
     const cut = msg.sample.t - 60;
     while (history.length && history[0].t < cut) history.shift();
   }
+  policyCard.sample(msg);
   render();
 }
 
@@ -339,6 +343,7 @@ function render() {
   $("recover").classList.toggle("current", !!s.recovery); // one runs (any console's)
   plots.velocity.draw(history);
   plots.tilt.draw(history);
+  policyCard.render(s);
 }
 
 window.addEventListener("resize", render);

@@ -1,6 +1,24 @@
 "use strict";
-// A small strip chart on a canvas: the last `windowS` seconds of some series from the console's samples.
-// A null value is a gap (that source is not there or went stale), never a zero.
+// Small charts on a canvas: a strip chart (the last `windowS` seconds of some series from the console's samples)
+// and bars (one value per joint). A null value is a gap or "no data" (that source is not there or went stale),
+// never a zero.
+
+// The canvas at its shown width (its aspect kept) and the device's pixel ratio: the context and the size to draw in.
+function fitCanvas(c, fallbackHeight) {
+  const ratio = window.devicePixelRatio || 1;
+  const w = c.clientWidth || 600;
+  const h = Math.round(w * (c.height / c.width)) || fallbackHeight;
+  if (c.width !== Math.round(w * ratio)) {
+    const aspect = c.height / c.width;
+    c.width = Math.round(w * ratio);
+    c.height = Math.round(w * ratio * aspect);
+  }
+  const g = c.getContext("2d");
+  g.setTransform(ratio, 0, 0, ratio, 0, 0);
+  g.clearRect(0, 0, w, h);
+  g.font = "11px system-ui, sans-serif";
+  return { g, w, h };
+}
 
 class StripChart {
   constructor(canvas, { series, unit, windowS = 30, minRange = 0.2, zeroBased = false }) {
@@ -13,18 +31,7 @@ class StripChart {
   }
 
   draw(samples) {
-    const c = this.canvas;
-    const ratio = window.devicePixelRatio || 1;
-    const w = c.clientWidth || 600;
-    const h = Math.round(w * (c.height / c.width)) || 160;
-    if (c.width !== Math.round(w * ratio)) {
-      const aspect = c.height / c.width;
-      c.width = Math.round(w * ratio);
-      c.height = Math.round(w * ratio * aspect);
-    }
-    const g = c.getContext("2d");
-    g.setTransform(ratio, 0, 0, ratio, 0, 0);
-    g.clearRect(0, 0, w, h);
+    const { g, w, h } = fitCanvas(this.canvas, 160);
     const end = samples.length ? samples[samples.length - 1].t : 0;
     const start = end - this.windowS;
     const shown = samples.filter((s) => s.t >= start);
@@ -39,7 +46,6 @@ class StripChart {
     if (!isFinite(lo)) { lo = 0; hi = this.minRange; }
     if (this.zeroBased) lo = Math.min(lo, 0);
     if (hi - lo < this.minRange) hi = lo + this.minRange;
-    g.font = "11px system-ui, sans-serif";
     // the legend first, in as many rows as the width needs (a phone, a narrow card)
     const pad = { l: 42, r: 8, t: 0, b: 16 };
     const keys = [];
@@ -80,5 +86,71 @@ class StripChart {
       g.fillRect(kx, ky - 6, 10, 3);
       g.fillText(label, kx + 14, ky);
     }
+  }
+}
+
+// One bar per joint, in the motor order, grouped by limb (a gap and a label under each group): a signed value
+// such as target - measured. Bars beyond `limit` (and the ±limit lines) are drawn in the warning colour.
+class JointBars {
+  constructor(canvas, { unit, minRange = 0.1, color = "#4da3ff", over = "#ff4d4d" }) {
+    this.canvas = canvas;
+    this.unit = unit;
+    this.minRange = minRange;
+    this.color = color;
+    this.over = over;
+    this.names = [];
+  }
+
+  static group(name) {
+    if (name.startsWith("waist")) return "waist";
+    const side = name.startsWith("left") ? "left" : "right";
+    return `${side} ${/hip|knee|ankle/.test(name) ? "leg" : "arm"}`;
+  }
+
+  draw(values, limit, title, empty) {
+    const { g, w, h } = fitCanvas(this.canvas, 140);
+    const pad = { l: 42, r: 8, t: 18, b: 16 };
+    g.fillStyle = "#8b96a5";
+    if (!values) {
+      g.fillText(empty, pad.l, h / 2);
+      return;
+    }
+    const span = Math.max(this.minRange, limit || 0, ...values.map((v) => Math.abs(v))) * 1.1;
+    const mid = pad.t + (h - pad.t - pad.b) / 2;
+    const y = (v) => mid - (v / span) * ((h - pad.t - pad.b) / 2);
+    const groups = [];
+    this.names.forEach((name, i) => {
+      const label = JointBars.group(name);
+      if (!groups.length || groups[groups.length - 1].label !== label) groups.push({ label, first: i, last: i });
+      else groups[groups.length - 1].last = i;
+    });
+    const gap = 6;
+    const slot = (w - pad.l - pad.r - gap * (groups.length - 1)) / Math.max(1, values.length);
+    const x = (i) => pad.l + i * slot + gap * groups.findIndex((gr) => i >= gr.first && i <= gr.last);
+    g.strokeStyle = "#2a323c";
+    g.lineWidth = 1;
+    for (const v of [-span / 1.1, 0, span / 1.1]) {
+      g.beginPath(); g.moveTo(pad.l, y(v)); g.lineTo(w - pad.r, y(v)); g.stroke();
+      g.fillText(v.toFixed(2), 2, y(v) + 4);
+    }
+    if (limit) {
+      g.strokeStyle = this.over;
+      g.setLineDash([4, 4]);
+      for (const v of [-limit, limit]) { g.beginPath(); g.moveTo(pad.l, y(v)); g.lineTo(w - pad.r, y(v)); g.stroke(); }
+      g.setLineDash([]);
+    }
+    values.forEach((v, i) => {
+      g.fillStyle = limit && Math.abs(v) > limit ? this.over : this.color;
+      const top = Math.min(y(v), y(0));
+      g.fillRect(x(i) + 1, top, Math.max(1, slot - 2), Math.max(1, Math.abs(y(v) - y(0))));
+    });
+    g.fillStyle = "#8b96a5";
+    for (const gr of groups) {
+      const text = gr.label;
+      const centre = (x(gr.first) + x(gr.last) + slot) / 2;
+      g.fillText(text, centre - g.measureText(text).width / 2, h - 3);
+    }
+    g.fillStyle = "#e8ecf1";
+    g.fillText(`${title} (${this.unit})`, pad.l, 12);
   }
 }
