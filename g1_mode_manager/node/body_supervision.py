@@ -1,5 +1,6 @@
 """The node's side of the body checks: the body watch's thread and what /diagnostics shows of each check
-(~/clear_fault, which releases what they latched, is served with the other services in services.py)."""
+(~/clear_fault, which releases what they latched, is served with the other services in services.py). The thread
+also runs, after each step, whatever else reads the robot's remote (``on_step``)."""
 
 from __future__ import annotations
 
@@ -30,8 +31,14 @@ class BodySupervision:
                                deadman_keys=parse_keys(s.lowcmd_deadman_key),
                                fast_period_s=1.0 / s.body_check_rate_hz, slow_period_s=1.0 / s.body_check_slow_rate_hz,
                                enabled=s.body_checks_enabled)
-        self._worker = PeriodicWorker("body_watch", s.body_check_rate_hz, lambda _dt: self.watch.step(), on_error,
+        #: what else reads the remote at the watch's rate, after its step (set by whoever builds it: the policy's keys)
+        self.on_step: Callable[[], None] = lambda: None
+        self._worker = PeriodicWorker("body_watch", s.body_check_rate_hz, self._step, on_error,
                                       period_s=self.watch.period_s)
+
+    def _step(self, _dt_s: float) -> None:
+        self.watch.step()
+        self.on_step()
 
     def start(self) -> None:
         self._worker.start()

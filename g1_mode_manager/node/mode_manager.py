@@ -53,6 +53,8 @@ class ModeManagerNode(Node):
         e.state.stop()
         p.arm.ramp_out()  # bounded: the arm worker still runs and sends the ramp-out frames
         p.body.stop()
+        if p.policy_keys is not None:
+            p.policy_keys.stop()  # no press from here on; a verb under way ends before the robot is handed back
         p.supervisor.stop()
         p.policy_worker.stop()  # the policy's last frame stands; the relay's hold and hand-back take over
         p.lowcmd.at_exit()  # user_ctrl: the robot handed back to its own controller while the hold still goes out

@@ -145,6 +145,11 @@ DESCRIPTIONS: dict[str, str] = {
     "policy_disengage": "~/policy/disengage: 'walkrun' hands the robot back to its own controller standing "
     "(SwitchToInternalCtrl WALKRUN, LOW_LEVEL -> HIGH_LEVEL); 'hold' holds the last pose in LOW_LEVEL "
     "(disengage again to hand back).",
+    "policy_engage_keys": "Keys of the robot's remote that engage the loaded and shadowed policy when pressed together "
+    "(once per press, as ~/policy/engage), e.g. 'R1+X' (unitree_rl_lab's G1 velocity policy); '' = off.",
+    "policy_disengage_keys": "Keys of the robot's remote that disengage the policy when pressed together (once per "
+    "press, as ~/policy/disengage), e.g. 'L2+Up' (unitree_rl_lab's G1 stand); '' = off. Neither may hold all the "
+    "keys of the other or of remote_estop_keys, nor be part of them.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
 }

@@ -1,5 +1,6 @@
 """The node's robot-side parts, each built once and named: the mode machine and what reads it or goes through
-its forward gate (relays and their workers, loco commands, the supervisor, the body watch, the head LED).
+its forward gate (relays and their workers, loco commands, the supervisor, the body watch, the policy's remote
+keys, the head LED).
 
 Each is built from parts built before it, so none has to ask whether another exists yet; the node's ROS side
 (what it publishes, serves and takes) is built after them, in wiring.py.
@@ -19,7 +20,7 @@ from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.display.head_led import HeadLed, LedLook, parse_looks
 from g1_mode_manager.node.body_supervision import BodySupervision
 from g1_mode_manager.node.node_log import NodeLog
-from g1_mode_manager.node.settings import Settings
+from g1_mode_manager.node.settings import Settings, parse_keys
 from g1_mode_manager.node.supervisor import RobotSupervisor
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.autonomy_conditions import AutonomyConditions
@@ -29,6 +30,7 @@ from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
+from g1_mode_manager.relay.policy_keys import KeyCombo, PolicyKeys
 from g1_mode_manager.relay.policy_runner import PolicyRunner
 from g1_mode_manager.relay.user_lowcmd import UserLowCmdRelay
 from g1_mode_manager.relay.walk_judge import WalkJudge
@@ -50,6 +52,7 @@ class Parts:
     lowcmd_worker: PeriodicWorker
     policy: PolicyRunner  # a controller in the node's own loop, its frames through the lowcmd relay
     policy_worker: PeriodicWorker
+    policy_keys: PolicyKeys | None  # the remote's keys for the policy on the body watch's thread, or None (both off)
     loco: LocoCommands
     lowstate_demand: LowStateDemand
     supervisor: PeriodicWorker
@@ -91,6 +94,7 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
     policy = PolicyRunner(port, machine, lowcmd, events, loader=lambda name: _load_policy(name, s),
                           limits=s.policy_limits(), velocity_limits=s.velocity_limits(),
                           cmd_vel_timeout_s=s.cmd_vel_timeout_s, hold_gains=(s.user_ctrl_hold_kp, s.user_ctrl_hold_kd))
+    policy_keys = _policy_keys(s, policy, body, log)
     loco = LocoCommands(port, machine, outcome_timeout_s=s.loco_outcome_timeout_s,
                         motion_timeout_s=s.loco_motion_timeout_s, get_up_timeout_s=s.loco_get_up_timeout_s,
                         tilt=lambda: body.watch.readings.tilt_rad)
@@ -114,7 +118,7 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
         lowcmd=lowcmd,
         lowcmd_worker=PeriodicWorker("lowcmd_relay", s.lowcmd_damping_rate_hz, lowcmd.tick, on_error,
                                      busy=lowcmd.busy),
-        policy=policy,
+        policy=policy, policy_keys=policy_keys,
         policy_worker=PeriodicWorker("policy_loop", 50.0, policy.tick, on_error, busy=policy.ticking,
                                      period_s=policy.period_s),
         loco=loco, lowstate_demand=lowstate_demand,
@@ -140,6 +144,18 @@ def _lowcmd_relay(s: Settings, port: RobotPort, machine: ModeMachine, link: Link
     return UserLowCmdRelay(port, machine, link, events, user_ctrl=user_ctrl, silence=config.silence,
                            hand_back=machine.hand_back_on_silence, hold_kp=config.hold_kp, hold_kd=config.hold_kd,
                            **kwargs)
+
+
+def _policy_keys(s: Settings, policy: PolicyRunner, body: BodySupervision, log: NodeLog) -> PolicyKeys | None:
+    """The policy's remote keys, looked at after each body watch step (a phase read while no policy is loaded), or
+    None when both are off. Logged unthrottled: every press and its answer are the operator's to read."""
+    engage, disengage = (KeyCombo(text, parse_keys(text)) for text in (s.policy_engage_keys, s.policy_disengage_keys))
+    if not engage.mask and not disengage.mask:
+        return None
+    keys = PolicyKeys(policy, body.watch.fresh_keys, log.relay, engage=engage, disengage=disengage,
+                      estop=KeyCombo(s.remote_estop_keys, parse_keys(s.remote_estop_keys)))
+    body.on_step = keys.look
+    return keys
 
 
 def _load_policy(name: str, s: Settings) -> Controller:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass, fields
+from itertools import combinations
 from pathlib import Path
 
 from rclpy.node import Node
@@ -23,7 +24,7 @@ from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
 from g1_mode_manager.node.parameter_descriptions import descriptor
 from g1_mode_manager.node.renamed_parameters import read_old_names
-from g1_mode_manager.protocol.remote import key_mask
+from g1_mode_manager.protocol.remote import KEY_NAMES, key_mask
 from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyLimits
 
 #: The models set-up extracts from holosoma-inference's pinned wheel (scripts/fetch_assets.py), under the prefix.
@@ -133,6 +134,10 @@ class Settings:
     policy_overrun_s: float = PolicyLimits.overrun_s
     policy_max_overruns: int = PolicyLimits.max_overruns
     policy_disengage: str = PolicyLimits.disengage.value
+    # the remote's keys for the policy (relay/policy_keys.py): unitree_rl_lab's G1 deploy starts its velocity policy
+    # on R1+X and stands the robot on L2+Up
+    policy_engage_keys: str = "R1+X"
+    policy_disengage_keys: str = "L2+Up"
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
@@ -210,15 +215,37 @@ def declare_settings(node: Node) -> Settings:
                           ("policy_disengage", DisengageTo)):
         if values[name] not in {c.value for c in choices}:
             raise ValueError(f"parameter {name}: {values[name]!r} is none of {', '.join(c.value for c in choices)}")
-    for name in ("remote_estop_keys", "lowcmd_deadman_key"):
+    for name in ("remote_estop_keys", "lowcmd_deadman_key", *REMOTE_COMBINATIONS):
         try:
             parse_keys(values[name])
         except ValueError as exc:
             raise ValueError(f"parameter {name}: {exc}") from None
+    if (clash := combination_clash(values)) is not None:
+        raise ValueError(clash)
     return Settings(**values)
 
 
+#: Remote combinations that act on a press. None may hold all of another's keys: a press of the larger would be a
+#: press of the smaller too (a key in common, as L2+Up and L2+B have, is fine).
+REMOTE_COMBINATIONS = ("remote_estop_keys", "policy_engage_keys", "policy_disengage_keys")
+#: Unitree's key names, by their lower case: 'L2+Up' (as unitree_rl_lab writes it) is Unitree's 'L2+up'.
+_KEY_NAME = {name.lower(): name for name in KEY_NAMES}
+
+
+def combination_clash(values: dict[str, object]) -> str | None:
+    """Why two of REMOTE_COMBINATIONS cannot both be set as they are (None: they can; '' is off)."""
+    masks = {name: parse_keys(str(values[name])) for name in REMOTE_COMBINATIONS}
+    for first, second in combinations(REMOTE_COMBINATIONS, 2):
+        a, b = masks[first], masks[second]
+        if not a or not b or a & b not in (a, b):
+            continue
+        how = "is the same combination as" if a == b else "holds every key of" if a & b == a else "is part of"
+        return (f"parameter {second}: {values[second]!r} {how} {first} {values[first]!r}, so a press of one would act "
+                f"as the other; choose combinations neither of which holds all the other's keys")
+    return None
+
+
 def parse_keys(text: str) -> int:
-    """'L2+B' -> the remote's key mask; '' -> 0 (off). Raises ValueError naming the unknown key."""
-    names = [part.strip() for part in text.split("+") if part.strip()]
+    """'L2+B' -> the remote's key mask (names in any case); '' -> 0 (off). Raises ValueError naming an unknown key."""
+    names = [_KEY_NAME.get(part.strip().lower(), part.strip()) for part in text.split("+") if part.strip()]
     return key_mask(names) if names else 0

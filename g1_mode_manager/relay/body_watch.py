@@ -124,10 +124,15 @@ class BodyWatch:
 
     def keys_held(self, mask: int, now: float | None = None) -> bool:
         """The remote's keys in ``mask`` are all held, as of a frame no older than REMOTE_FRESH_S."""
+        keys = self.fresh_keys(now)
+        return keys is not None and keys & mask == mask
+
+    def fresh_keys(self, now: float | None = None) -> int | None:
+        """The remote's key field as of a frame no older than REMOTE_FRESH_S (None: no such frame, the keys held now
+        are not known)."""
         with self._lock:
             keys, at = self._keys, self._keys_at
-        fresh = (self._clock() if now is None else now) - at <= REMOTE_FRESH_S
-        return fresh and keys & mask == mask
+        return keys if (self._clock() if now is None else now) - at <= REMOTE_FRESH_S else None
 
     def deadman_held(self) -> bool:
         """The LOW_LEVEL dead-man: True while its key is held (always True when no dead-man is set)."""

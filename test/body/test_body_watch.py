@@ -131,3 +131,13 @@ def test_the_watch_runs_fast_on_rt_lowstate_and_slow_without_it() -> None:
     assert watch.period_s() == 0.01
     port.lowstate_wanted = False
     assert watch.period_s() == 0.05
+
+
+def test_the_remotes_keys_are_known_only_from_a_fresh_frame() -> None:
+    watch, _machine, port, clock, _ = _watch(Mode.LOW_LEVEL)
+    assert watch.fresh_keys() is None  # no frame yet
+    port.state = state(keys=("R1", "X"))
+    _steps(watch, clock, 1)
+    assert watch.fresh_keys() == key_mask(("R1", "X"))
+    clock.t += 0.5
+    assert watch.fresh_keys() is None and not watch.keys_held(key_mask(("R1",)))

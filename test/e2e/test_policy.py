@@ -1,5 +1,6 @@
 """A learned policy run inside the node's own loop, the real node against the real sim, judged on the sim's truth
-and record: loaded, shadowed, engaged by user control, driven by the teleop, disengaged standing."""
+and record: loaded, shadowed, engaged by user control, driven by the teleop, disengaged standing; engaged and
+disengaged by the robot's remote as well as by the services."""
 
 from __future__ import annotations
 
@@ -24,9 +25,11 @@ from e2e.user_ctrl_session import (
     no_user_frame_before_1000,
     wait_sim,
 )
+from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, InternalCtrl
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
+from support.sim_record import of_kind, requests
 from support.timing import ESTOP_FRAME_S, POLICY_STALL_S, check_latency
 
 pytestmark = pytest.mark.e2e
@@ -60,9 +63,30 @@ def yaw_of(quat_wxyz) -> float:
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
-def engage(stack, policy: str = "loco_ppo", shadow_s: float = 3.0) -> None:
-    """Walked, stopped; the policy loaded, shadowed for ``shadow_s`` of sim time and engaged; returns once its blend
-    is over."""
+def press(stack, *keys: str) -> float:
+    """Hold ``keys`` on the sim's remote (its ``remote_keys`` fault); returns when the record shows them held."""
+    since = time.monotonic()
+    stack.set_faults({"remote_keys": list(keys)})
+
+    def held() -> list[dict]:
+        return [e for e in of_kind(stack.record.events(since), "inject") if e["what"] == "remote_keys" and e["on"]]
+
+    assert wait_until(lambda: bool(held()), 10.0), f"{keys} never held on the record"
+    return held()[0]["t"]
+
+
+def answered_by_the_remote(stack, verb: str, keys: str) -> str:
+    """The node's log line of its answer to a press of ``keys``, after the line of the request."""
+    requested = stack.node.wait_for_line(lambda line: f"policy/{verb} requested by the remote ({keys})" in line, 15.0)
+    answer = stack.node.wait_for_line(lambda line: f"policy/{verb} by the remote ({keys}): " in line, 30.0)
+    print(f"{requested.strip()}\n{answer.strip()}")
+    return answer
+
+
+def engage(stack, policy: str = "loco_ppo", shadow_s: float = 3.0, by_remote: bool = False) -> float:
+    """Walked, stopped; the policy loaded, shadowed for ``shadow_s`` of sim time and engaged, by ~/policy/engage or
+    (``by_remote``) by R1+X held on the robot's remote and released once the node took the press; returns once the
+    blend is over, with the time the engage was asked for."""
     seen = statuses(stack)
     # every verb's client made now, discovered while the robot walks
     for verb in ("shadow", "engage", "disengage", "hold"):
@@ -74,11 +98,19 @@ def engage(stack, policy: str = "loco_ppo", shadow_s: float = 3.0) -> None:
     r = policy_call(stack, "shadow")
     assert r.success, r.message
     wait_sim(stack, shadow_s)
-    r = policy_call(stack, "engage")
-    print(f"engage: {r.message}")
-    assert r.success, r.message
+    if by_remote:
+        asked = press(stack, "R1", "X")
+        answer = answered_by_the_remote(stack, "engage", "R1+X")
+        stack.set_faults({})  # released
+        assert "LOW_LEVEL entered" in answer, answer
+    else:
+        asked = time.monotonic()
+        r = policy_call(stack, "engage")
+        print(f"engage: {r.message}")
+        assert r.success, r.message
     wait_sim(stack, 2.5)  # the blend (2 s) and a moment under the policy alone
     assert wait_until(lambda: seen and seen[-1].phase == "running", 5.0), [(s.phase, s.last_fault) for s in seen][-3:]
+    return asked
 
 
 def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stack_factory) -> None:
@@ -94,9 +126,10 @@ def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stac
     turned = math.degrees(yaw_of(stack.sim.get()["base"]["quaternion"]) - yaw0) % 360
     print(f"turned {turned:.0f} degrees under the policy")
     stack.drive_sim_time(0.0, 1.0)
-    r = policy_call(stack, "disengage")
-    print(f"disengage: {r.message}")
-    assert r.success, r.message
+    # disengaged by the remote, as unitree_rl_lab's deploy stands the robot: the robot's own controller takes it back
+    pressed = press(stack, "L2", "up")
+    answered_by_the_remote(stack, "disengage", "L2+Up")
+    stack.set_faults({})  # released
     wait_sim(stack, 2.0)
 
     ev = stack.record.events()
@@ -106,6 +139,8 @@ def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stac
     fsms = [fsm for _, fsm in fsm_states(ev)]
     assert fsms[-1] in STANDING_FSM_IDS, fsms
     assert internal_ctrl(ev) == [InternalCtrl.WALKRUN]
+    assert requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL)[0]["t"] > pressed, "handed back before L2+Up was pressed"
+    assert wait_until(lambda: seen[-1].phase == "loaded", 5.0), seen[-1].phase
     assert turned >= 90, f"turned only {turned:.0f} degrees"
     assert wait_until(lambda: any(s.phase == "running" for s in seen), 5.0)
     running = [s for s in seen if s.phase == "running"]
@@ -114,8 +149,15 @@ def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stac
 
 
 def test_an_estop_mid_walk_under_the_policy_damps_the_robot_and_ends_the_policys_frames(shared_stack_factory) -> None:
+    """Engaged by R1+X on the robot's remote (the service's engage is the teleop test's)."""
     stack = shared_stack_factory(node_params=STEADY_POLICY)
-    engage(stack, shadow_s=1.0)
+    pressed = engage(stack, shadow_s=1.0, by_remote=True)
+    ev = stack.record.events()
+    policy = [e for _, e in frames_on(ev, "user_lowcmd") if abs(e["kp_max"] - POLICY_KP_MAX) < 1e-3]
+    assert policy and min(e["t"] for e in policy) > pressed, "a policy frame before R1+X was pressed"
+    switches = requests(ev, api.LOCO_SWITCH_TO_USER_CTRL)
+    assert switches and all(e["t"] > pressed for e in switches), "user control before R1+X"
+    no_user_frame_before_1000(ev, user_kp=POLICY_KP_MAX)
     stack.drive_sim_time(0.4, 1.0)  # walking under the policy: the teleop's cmd_vel goes to the node's loop
     stack.match_estop()
     t0 = time.monotonic()

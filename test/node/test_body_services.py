@@ -62,7 +62,8 @@ def test_a_fall_shows_fault_with_its_reason_and_clear_fault_waits_for_the_hold_t
     assert len(body) == 10 and all({kv.key for kv in s.values} >= {"value", "threshold", "state"} for s in body)
 
 
-@pytest.mark.parametrize("name", ["remote_estop_keys", "lowcmd_deadman_key"])
+@pytest.mark.parametrize("name", ["remote_estop_keys", "lowcmd_deadman_key", "policy_engage_keys",
+                                  "policy_disengage_keys"])
 def test_an_unknown_remote_key_fails_at_start_naming_its_parameter(name: str) -> None:
     context = rclpy.Context()
     rclpy.init(context=context)

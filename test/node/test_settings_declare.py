@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -99,3 +100,24 @@ def test_the_low_level_path_chooses_the_user_ctrl_settings() -> None:
         assert config is not None and config.silence.value == "hand_back"  # the default: user control
     with node_with(low_level_path="release") as node:
         assert declare_settings(node).user_ctrl_config() is None
+
+
+@pytest.mark.parametrize(("overrides", "error"), [
+    ({"policy_engage_keys": "L2+B"}, "policy_engage_keys: 'L2+B' is the same combination as remote_estop_keys 'L2+B'"),
+    ({"policy_engage_keys": "B"}, "policy_engage_keys: 'B' is part of remote_estop_keys 'L2+B'"),
+    ({"policy_disengage_keys": "L2+B+up"}, "policy_disengage_keys: 'L2+B+up' holds every key of remote_estop_keys"),
+    ({"policy_disengage_keys": "R1+X+A"}, "policy_disengage_keys: 'R1+X+A' holds every key of policy_engage_keys"),
+    ({"remote_estop_keys": "R1", "policy_disengage_keys": ""},
+     "policy_engage_keys: 'R1+X' holds every key of remote_estop_keys 'R1'"),
+])
+def test_a_remote_combination_that_would_press_another_fails_at_start(overrides: dict, error: str) -> None:
+    with node_with(**overrides) as node, pytest.raises(ValueError, match=re.escape(f"parameter {error}")):
+        declare_settings(node)
+
+
+def test_the_policys_remote_keys_default_to_rl_labs_and_take_any_case_or_none() -> None:
+    with node_with() as node:
+        settings = declare_settings(node)
+    assert (settings.policy_engage_keys, settings.policy_disengage_keys) == ("R1+X", "L2+Up")
+    with node_with(policy_engage_keys="r1 + x", policy_disengage_keys="", remote_estop_keys="") as node:
+        assert declare_settings(node).policy_engage_keys == "r1 + x"
