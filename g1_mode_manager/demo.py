@@ -158,8 +158,13 @@ def _user_ctrl_and_back(client: ManagerClient, step, odom) -> None:
     ~/lowcmd stays silent (IDLE, standing), then HIGH_LEVEL and walking again."""
     r = client.set_mode("low_level")
     step("set_mode low_level (user control: hand-over frame, fsm 1000 seen; robot held)", r.success, r.message)
-    time.sleep(1.0)  # no ~/lowcmd: after lowcmd_timeout_s the node hands the robot back
+    # no ~/lowcmd: the hand-over frame holds the robot for the first frame's grace (user_ctrl_first_frame_s), then
+    # the node hands it back
+    deadline = time.monotonic() + 5.0
     mode = client.wait_for_mode()
+    while (mode is None or mode.name != "IDLE") and time.monotonic() < deadline:
+        time.sleep(0.1)
+        mode = client.wait_for_mode()
     name = mode.name if mode is not None else "?"
     why = mode.last_error if mode is not None else ""
     step("no ~/lowcmd: robot handed back to its walk-run controller, standing", name == "IDLE", f"{name}: {why}")

@@ -85,6 +85,9 @@ class UserCtrlConfig:
     hold_kd: float = 8.0  # and damping, N m s/rad
     rest_speed_rad_s: float = 0.5  # the hand-over frame holds a pose: the robot must be at rest (every |dq| below)
     rest_timeout_s: float = 3.0  # how long the entry waits for rest after StopMove before it refuses
+    #: the hand-over frame holds the robot this long after the entry for the user's first frame, before silence
+    #: counts: a ROS publisher made just before the request needs 0.1-0.4 s to be matched and heard
+    first_frame_s: float = 1.0
     silence: SilenceReaction = SilenceReaction.HAND_BACK
 
 

@@ -130,6 +130,8 @@ DESCRIPTIONS: dict[str, str] = {
     "user_ctrl_rest_speed_rad_s": "user_ctrl: the entry waits until every joint is slower than this (the hand-over "
     "frame holds a pose; one taken mid-step falls over), rad/s.",
     "user_ctrl_rest_timeout_s": "user_ctrl: how long the entry waits for the robot at rest before it refuses, s.",
+    "user_ctrl_first_frame_s": "user_ctrl: after the entry, the hand-over frame holds the robot this long for the "
+    "user's first frame before silence (lowcmd_timeout_s) counts, s: time for a fresh ROS publisher to be heard.",
     "policy": "The policy ~/policy/load loads when its request names none: a built-in (loco_ppo, loco_fastsac, "
     "dance_ppo, dance_fastsac) or a deploy config's path (.yaml; docs/policies.md).",
     "policy_dir": "Where the policies' ONNX models are; '' = the ones set-up extracted from holosoma-inference's "
@@ -167,6 +169,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "user_ctrl_switch_timeout_s": (0.05, 10.0),
     "user_ctrl_hold_kp": (0.0, MAX_KP),
     "user_ctrl_hold_kd": (0.0, MAX_KD),
+    "user_ctrl_first_frame_s": (0.0, 10.0),
     "policy_blend_s": (0.0, 30.0),
     "policy_engage_max_error_rad": (0.0, 3.0),
     "policy_state_timeout_s": (0.004, 1.0),

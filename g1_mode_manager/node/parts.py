@@ -143,7 +143,7 @@ def _lowcmd_relay(s: Settings, port: RobotPort, machine: ModeMachine, link: Link
         return LowCmdRelay(port, machine, link, events, **kwargs)
     return UserLowCmdRelay(port, machine, link, events, user_ctrl=user_ctrl, silence=config.silence,
                            hand_back=machine.hand_back_on_silence, hold_kp=config.hold_kp, hold_kd=config.hold_kd,
-                           **kwargs)
+                           first_frame_s=config.first_frame_s, **kwargs)
 
 
 def _policy_keys(s: Settings, policy: PolicyRunner, body: BodySupervision, log: NodeLog) -> PolicyKeys | None:

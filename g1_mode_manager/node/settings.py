@@ -125,6 +125,7 @@ class Settings:
     user_ctrl_silence: str = UserCtrlConfig.silence.value
     user_ctrl_rest_speed_rad_s: float = UserCtrlConfig.rest_speed_rad_s
     user_ctrl_rest_timeout_s: float = UserCtrlConfig.rest_timeout_s
+    user_ctrl_first_frame_s: float = UserCtrlConfig.first_frame_s
     # --- a policy in the node's own loop (relay/policy_runner.py, docs/policies.md) ---
     policy: str = "loco_ppo"
     policy_dir: str = ""
@@ -151,7 +152,8 @@ class Settings:
         return UserCtrlConfig(switch_timeout_s=self.user_ctrl_switch_timeout_s, hold_kp=self.user_ctrl_hold_kp,
                               hold_kd=self.user_ctrl_hold_kd, silence=SilenceReaction(self.user_ctrl_silence),
                               rest_speed_rad_s=self.user_ctrl_rest_speed_rad_s,
-                              rest_timeout_s=self.user_ctrl_rest_timeout_s)
+                              rest_timeout_s=self.user_ctrl_rest_timeout_s,
+                              first_frame_s=self.user_ctrl_first_frame_s)
 
     def policy_limits(self) -> PolicyLimits:
         return PolicyLimits(blend_s=self.policy_blend_s, engage_max_error_rad=self.policy_engage_max_error_rad,

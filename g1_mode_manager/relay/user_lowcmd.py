@@ -6,7 +6,8 @@ What goes out, by situation (each frame written under the relay's worker at ``lo
 | situation | frame |
 | --- | --- |
 | LOW_LEVEL, a user frame no older than ``lowcmd_timeout_s`` | the user's (written on arrival) |
-| entry under way, or LOW_LEVEL before the first user frame | the hand-over frame (the measured pose held) |
+| entry under way, or LOW_LEVEL before the first user frame (at most ``user_ctrl_first_frame_s`` after the entry) | the
+  hand-over frame (the measured pose held) |
 | LOW_LEVEL, silent, ``user_ctrl_silence: hand_back`` | a hold at the pose of that moment, until the hand-back
   (LOW_LEVEL -> IDLE by SwitchToInternalCtrl WALKRUN, or FAULT with PASSIVE when tilted) is verified |
 | LOW_LEVEL, silent, ``user_ctrl_silence: damp`` | damping, as on the release path |
@@ -33,12 +34,14 @@ HAND_BACK_RETRY_S = 1.0
 
 class UserLowCmdRelay(LowCmdRelay):
     def __init__(self, *args: object, user_ctrl: UserCtrlLink, silence: SilenceReaction,
-                 hand_back: Callable[[], Outcome], hold_kp: float, hold_kd: float, **kwargs: object) -> None:
+                 hand_back: Callable[[], Outcome], hold_kp: float, hold_kd: float, first_frame_s: float,
+                 **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
         self._uc = user_ctrl
         self._silence = silence
         self._hand_back = hand_back
         self._hold_gains = (hold_kp, hold_kd)
+        self._first_frame_s = first_frame_s
         self._handing_back = False  # guarded by _lock
         self._next_hand_back = float("-inf")
 
@@ -82,12 +85,11 @@ class UserLowCmdRelay(LowCmdRelay):
             if not self._link.link_ok(Mode.LOW_LEVEL) or not self._deadman():
                 self._write(DAMPING, "damping_frames_sent")
                 return
-            timeout = self._watchdog.timeout_s
             age = self._watchdog.age_s()
-            if age is None and self._clock() - uc.entered_at <= timeout:
+            if age is None and self._clock() - uc.entered_at <= self._first_frame_s:
                 self._write(uc.filler, "hold_frames_sent")  # entered; the user's first frame is still to come
                 return
-            if age is not None and age <= timeout:
+            if age is not None and age <= self._watchdog.timeout_s:
                 return
             if self._silence is SilenceReaction.DAMP:
                 self._write(DAMPING, "damping_frames_sent")

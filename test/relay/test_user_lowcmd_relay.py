@@ -17,6 +17,7 @@ from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.user_lowcmd import UserLowCmdRelay
 
 KNEE = ["left_knee_joint"], [0.5], [], [], [100.0], [1.0]
+FIRST_FRAME_S = 1.0
 
 
 class Rig:
@@ -28,7 +29,7 @@ class Rig:
         self.relay = UserLowCmdRelay(self.port, self.gate, LinkHealth(self.port, self.gate, 0.5), events,
                                      silence_timeout_s=0.1, exit_damping_s=0.2, service_active=lambda: True,
                                      clock=clock, user_ctrl=self.link, silence=silence, hand_back=self._hand_back,
-                                     hold_kp=80.0, hold_kd=2.0)
+                                     hold_kp=80.0, hold_kd=2.0, first_frame_s=FIRST_FRAME_S)
 
     def _hand_back(self) -> Outcome:
         self.hand_backs.append(1.0)
@@ -64,6 +65,34 @@ def test_the_hand_over_frame_repeats_until_the_first_user_frame(events, clock) -
     rig.gate.mode = Mode.LOW_LEVEL
     rig.relay.tick(0.02)  # entered, no user frame yet, within lowcmd_timeout_s: still the hold
     assert rig.frames()[-1][3].kp == 80.0 and not rig.hand_backs
+
+
+def _wait_hand_back(rig: Rig) -> None:
+    for _ in range(100):
+        if rig.hand_backs:
+            return
+        time.sleep(0.01)
+
+
+def test_a_first_frame_late_by_a_fresh_publishers_delay_keeps_low_level(events, clock) -> None:
+    rig = Rig(events, clock)
+    rig.enter()
+    for _ in range(20):  # 0.4 s of the hand-over frame, past lowcmd_timeout_s (0.1 s) but within the grace
+        clock.advance(0.02)
+        rig.relay.tick(0.02)
+    _wait_hand_back(rig)
+    assert not rig.hand_backs and rig.frames()[-1][3].kp == 80.0
+    assert rig.relay.submit(*KNEE) is None  # the user's first frame, 0.4 s after the entry, goes out
+    assert rig.frames()[-1][JOINT_INDEX["left_knee_joint"]].kp == 100.0
+
+
+def test_no_first_frame_within_the_grace_hands_back(events, clock) -> None:
+    rig = Rig(events, clock)
+    rig.enter()
+    clock.advance(FIRST_FRAME_S + 0.05)
+    rig.relay.tick(0.02)
+    _wait_hand_back(rig)
+    assert rig.hand_backs == [1.0]
 
 
 def test_silence_hands_back_and_holds_meanwhile(events, clock) -> None:
