@@ -8,6 +8,7 @@ from __future__ import annotations
 import subprocess
 import threading
 import time
+from itertools import pairwise
 from typing import Any
 
 import pytest
@@ -21,6 +22,7 @@ from support.planner import launch_planner, planner_subscribed
 from support.processes import ManagedProcess, python_module
 from support.sim_record import confirming_damp, requests, velocity_of
 from support.timing import (
+    KEEP_ALIVE_P95_S,
     ONE_RPC_S,
     QUIET_WINDOW_S,
     RECORD_WAIT_S,
@@ -272,3 +274,19 @@ def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_dr
         assert _planner_moves(stack, t_back) == []
     finally:
         planner.stop()
+
+
+def test_a_steady_drive_keeps_its_move_alive_at_the_keep_alives_rate_on_the_record(shared_stack_factory) -> None:
+    """cmd_vel_rate_hz (10): a teleop holding one command gets one Move every 100 ms on the robot, not one every
+    other period."""
+    stack = shared_stack_factory()
+    assert stack.set_mode("high_level").success
+    assert stack.loco("start").success
+    t0 = time.monotonic()
+    stack.drive_sim_time(0.3, 10.0)
+    steady = [t for t, v in _moves(stack, t0) if v == [0.3, 0.0, 0.0]]  # past the ramp: keep-alives only
+    gaps = sorted(b - a for a, b in pairwise(steady))
+    assert len(gaps) >= 20, f"only {len(steady)} steady Moves on the record"
+    p95 = gaps[round(0.95 * (len(gaps) - 1))]
+    print(f"keep-alive over a steady drive: {len(steady)} Moves, median interval {1000 * gaps[len(gaps) // 2]:.1f} ms")
+    check_latency("keep-alive interval p95", 0.0, p95, KEEP_ALIVE_P95_S)

@@ -51,6 +51,8 @@ HELD_MOVE_ANSWER_S: Final = 0.05
 TAKEOVER_VISIBLE_S: Final = 0.1
 #: The autonomy's last command -> the StopMove on the robot: its timeout (the node's parameter) plus one RPC.
 ONE_RPC_S: Final = 0.05
+#: A steady Move's keep-alive (cmd_vel_rate_hz 10): the 95th percentile of its intervals on the robot's record.
+KEEP_ALIVE_P95_S: Final = 0.11
 
 
 def check_latency(name: str, t_condition: float, t_reaction: float, goal_s: float) -> float:
