@@ -71,7 +71,7 @@ bench: setup
 # the robot, the remote's L2+B within 100 ms, answers that do not wait for a held Move...), asserted alone on the
 # machine: the suite, which loads both cores, prints them and asserts order and outcome.
 LATENCY_TESTS := test/e2e/test_body.py test/e2e/test_held_move.py test/e2e/test_windows.py test/e2e/test_loco_outcome.py \
-	test/e2e/test_user_ctrl.py test/e2e/test_drivers.py test/e2e/test_policy.py
+	test/e2e/test_user_ctrl.py test/e2e/test_drivers.py test/e2e/test_policy.py test/e2e/test_policy_dance.py
 latency: setup
 	G1_TIMING=strict $(BIN)/python -m pytest -q -s $(LATENCY_TESTS)
 body-latency: setup
