@@ -63,6 +63,8 @@ class RunPort:
         self._select_timeout_s = select_timeout_s
         self._until = until
         self._clock = clock
+        #: SwitchToUserCtrl was answered 0 by the robot (a preemption seen after it cannot undo the switch)
+        self.user_ctrl_switch_answered = False
 
     def _timeout(self, configured: float | None, what: str) -> float | None:
         if self._until is None:
@@ -111,6 +113,7 @@ class RunPort:
         self._check("switch_to_user_ctrl")
         with self._changing_call(self._preempted):
             self._port.switch_to_user_ctrl(timeout_s=self._timeout(self._call_timeout_s, "SwitchToUserCtrl"))  # type: ignore[attr-defined]
+        self.user_ctrl_switch_answered = True
         self._check("switch_to_user_ctrl")
 
     def switch_to_internal_ctrl(self, target: int) -> None:

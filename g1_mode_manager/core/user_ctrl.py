@@ -75,6 +75,14 @@ class UserCtrlPort(Protocol):
         """The largest |dq| of the newest state sample, rad/s; None without a fresh one."""
 
 
+#: A SwitchToUserCtrl answered 0 after a stop began: the stop waits at most this long for its fsm 1000 before it damps
+#: (s). The firmware does not cancel an accepted switch, and while one is pending Damp does nothing and GetFsmId
+#: still shows the fsm from before it (docs/robot_compat.md): a robot damped before the switch would pass the
+#: stop's verification and switch after it. Longer than switch_timeout_s, which a robot slower than the entry
+#: expects (a loaded sim, a busy controller) may outlast.
+LATE_SWITCH_WAIT_S = 5.0
+
+
 @dataclass(frozen=True)
 class UserCtrlConfig:
     """The user_ctrl path's parameters (node/settings.py holds their defaults and says why)."""

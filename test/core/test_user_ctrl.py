@@ -349,3 +349,30 @@ def test_low_level_is_refused_while_a_body_check_holds_motion_with_nothing_sent(
     assert rig.robot.names(start) == [] and rig.robot.user_frames == [] and not rig.link.live
     assert rig.machine.clear_fault(lambda: "", lambda: None).success
     rig.to(LO)  # released: the entry runs
+
+
+def test_estop_waits_for_a_switch_accepted_during_it_before_it_claims_the_robot_damped() -> None:
+    """A damped robot (fsm 1) whose SwitchToUserCtrl, in flight at the e-stop, is accepted and takes effect later
+    than switch_timeout_s: the Damp does nothing while it is pending and GetFsmId still shows 1, so a verification
+    then would pass and the robot switch after it. The e-stop waits for the switch, then PASSIVE and Damp."""
+    rig = Rig(real_time=True)
+    rig.to(HI)
+    rig.robot.damped = True  # the robot lies damped; the firmware takes the switch from damping
+    rig.robot.switch_polls = 70  # 1000 shows 70 GetFsmId polls (about 1.4 s) after the switch is accepted
+    hold = rig.robot.hold("switch_to_user_ctrl")
+    outcomes: list = []
+    entry = threading.Thread(target=lambda: outcomes.append(rig.machine.request(LO)))
+    entry.start()
+    assert hold.wait_entered()
+    estop: list = []
+    stopper = threading.Thread(target=lambda: estop.append(rig.machine.estop()))
+    stopper.start()
+    time.sleep(0.05)
+    hold.release()
+    entry.join(10.0)
+    stopper.join(15.0)
+    assert estop and estop[0].success, estop
+    seen = [rig.robot.get_fsm_id() for _ in range(100)]  # longer than the switch took
+    assert USER_CTRL_FSM_ID not in seen, "the robot switched to user control after the e-stop's success"
+    assert rig.robot.damped and not rig.robot.user_ctrl
+    assert InternalCtrl.PASSIVE in rig.robot.internal_ctrl_calls

@@ -19,6 +19,7 @@ from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.port import RobotError
 from g1_mode_manager.core.preemption import Preempted, RunPort
 from g1_mode_manager.core.user_ctrl import (
+    LATE_SWITCH_WAIT_S,
     UNSUPPORTED,
     NotUpright,
     UserCtrlConfig,
@@ -62,7 +63,9 @@ class UserCtrlSteps:
         try:
             calls.switch_to_user_ctrl()
         except Preempted:  # answered after an e-stop began: the robot may still switch (the e-stop waits for it)
-            self.link.switch_answered(self.config.switch_timeout_s)
+            answered = calls.user_ctrl_switch_answered  # False: preempted before it was sent
+            self.link.switch_answered(max(self.config.switch_timeout_s, LATE_SWITCH_WAIT_S) if answered
+                                      else self.config.switch_timeout_s)
             raise
         except RobotError as exc:
             if exc.code == ERR_SERVER_API_NOT_IMPL:
