@@ -74,17 +74,20 @@ def test_walking_to_user_control_and_back_to_walking(shared_stack_factory) -> No
 
 
 def test_controller_heard_late_then_killed_hands_the_robot_back_standing(shared_stack_factory) -> None:
-    """The controller's first frame comes 0.4 s of sim time after the entry (a ROS publisher made just before its node
-    asks for LOW_LEVEL is heard 0.1-0.4 s later): the hand-over frame holds the robot in LOW_LEVEL until then
-    (user_ctrl_first_frame_s); its silence after the kill hands the robot back standing."""
+    """The controller's first frame comes 0.4 s after the entry (a ROS publisher made just before its node asks for
+    LOW_LEVEL is heard 0.1-0.4 s later): the hand-over frame holds the robot in LOW_LEVEL until then
+    (user_ctrl_first_frame_s, wall-clock time as the node's); its silence after the kill hands the robot back
+    standing."""
     stack = shared_stack_factory(node_params=(USER_CTRL,))
     controller = HoldController(stack)
     modes = stack.modes()
     enter_walking(stack)
     r = stack.set_mode("low_level")
     assert r.success, r.message
-    wait_sim(stack, 0.4)
+    answered = time.monotonic()
+    time.sleep(0.4)  # wall time: on a loaded machine the sim runs slower than the node's clock
     controller.start()
+    started = time.monotonic()
     wait_sim(stack, 1.0)  # the user's frames drive the robot (as held_in_user_ctrl holds it) before the kill
     killed = controller.stop()
     assert wait_until(lambda: stack.sim.get()["sport"]["fsm_id"] in STANDING_FSM_IDS, 10.0)
@@ -99,9 +102,13 @@ def test_controller_heard_late_then_killed_hands_the_robot_back_standing(shared_
     entered = next(e["t"] for e in ev if e["k"] == "state" and e["fsm"] == USER_CTRL_FSM_ID)
     back = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL) if e["t"] >= entered)
     first = next(e for _, e in frames_on(ev, "user_lowcmd") if e["kp_max"] == USER_KP)
-    print(f"the controller's first frame {1000 * (first['t'] - entered):.0f} ms after fsm 1000 on the record")
-    assert back["t"] > first["t"], "handed back before the controller's first frame"
-    held = [e for _, e in frames_on(ev, "user_lowcmd") if entered <= e["t"] < first["t"]]
+    print(f"the controller's first frame {1000 * (first['t'] - entered):.0f} ms after fsm 1000 on the record "
+          f"(set_mode answered {1000 * (answered - entered):.0f} ms, the controller started {1000 * (started - entered):.0f} ms "
+          "after it)")
+    # held until the first frame, or until the grace ran out if the test's own thread, starved, sent it later
+    held_until = min(first["t"], entered + UserCtrlConfig().first_frame_s)
+    assert back["t"] >= held_until, "handed back before the controller's first frame, within the grace"
+    held = [e for _, e in frames_on(ev, "user_lowcmd") if entered <= e["t"] < held_until]
     assert held and all(e["kp_max"] == HOLD_KP for e in held), "the robot was not held until the first frame"
     # (a controller stalled from the entry on, which a loaded machine can do to the test's thread, never drove: its silence
     # began at the entry)
