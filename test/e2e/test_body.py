@@ -31,6 +31,7 @@ from support.timing import (
     CONTROLLER_STALL_S,
     HIGH_LEVEL_DAMP_S,
     LOW_LEVEL_REACTION_S,
+    RECORD_WAIT_S,
     REMOTE_REACTION_S,
     check_latency,
 )
@@ -129,11 +130,11 @@ def _first_damping_frame(stack, since: float) -> float:
         return [e for e in stack.record.events(since) if e["k"] == "frame" and e["topic"] == "lowcmd"
                 and e["kp_max"] == 0]
 
-    assert wait_until(lambda: bool(frames()), 3.0), "no damping frame reached the robot"
+    assert wait_until(lambda: bool(frames()), RECORD_WAIT_S), "no damping frame reached the robot"
     return frames()[0]["t"]
 
 
-def _first_body(stack, since: float, field: str, above: float, timeout_s: float = 5.0) -> float:
+def _first_body(stack, since: float, field: str, above: float, timeout_s: float = RECORD_WAIT_S) -> float:
     """When the sim's body first showed ``field`` above ``above`` (waits for it)."""
     return _first_body_past(stack, since, {field: above}, timeout_s)
 
@@ -143,7 +144,7 @@ FALL_SIGNS = {"tilt": CHECKS["tilt"].threshold, "gyro": CHECKS["spin"].threshold
               "dq": CHECKS["joint_speed"].threshold}
 
 
-def _first_body_past(stack, since: float, limits: dict[str, float], timeout_s: float = 5.0) -> float:
+def _first_body_past(stack, since: float, limits: dict[str, float], timeout_s: float = RECORD_WAIT_S) -> float:
     """When the sim's body first showed any of ``limits``' fields above its limit (waits for it). For a fall,
     FALL_SIGNS: which one comes first depends on the pose the robot falls from."""
 

@@ -214,7 +214,8 @@ def test_torso_imu_and_odometry_at_their_rates_odometry_only_while_a_service_is_
     # (sim times from the status, taken up to 0.1 s of wall time apart from the counts: a rough rate)
     imu_hz = (after["n"][topics.SECONDARY_IMU] - before["n"][topics.SECONDARY_IMU]) / (s1["sim_time"] - s0["sim_time"])
     print(f"released: rt/secondary_imu about {imu_hz:.0f} Hz of sim time, odometry 0")
-    assert imu_hz > 400  # a sensor: published in every mode
+    # a sensor: published in every mode (500 Hz; a rough rate, read by a reader that lags on a loaded machine)
+    assert imu_hz > 250
     assert s1["published"]["odommodestate"] == s0["published"]["odommodestate"]
 
 
