@@ -36,7 +36,7 @@ from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, USER_CTRL_FSM_ID, InternalCtrl
 from support.mode_manager import wait_until
 from support.sim_record import of_kind, requests
-from support.timing import HAND_BACK_S, RECORD_WAIT_S, check_latency
+from support.timing import HAND_BACK_S, LOADED_RPC_TIMEOUT_S, RECORD_WAIT_S, check_latency
 
 pytestmark = pytest.mark.e2e
 
@@ -239,7 +239,8 @@ def test_remote_l2_b_in_user_control_damps_the_robot(shared_stack_factory) -> No
 def test_from_a_damped_robot_and_back_to_damping_by_last(shared_stack_factory) -> None:
     # in the gantry, as Unitree's user-control example is run: a damped G1 standing free sinks to the floor, where
     # LOW_LEVEL's fall check (the user's controller is responsible for keeping it up) would FAULT at once
-    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY), bridge_args=("--gantry",))
+    stack = shared_stack_factory(node_params=(USER_CTRL, STEADY, f"rpc_timeout_s:={LOADED_RPC_TIMEOUT_S}"),
+                                 bridge_args=("--gantry",))
     controller = HoldController(stack)
     assert stack.set_mode("high_level").success
     assert stack.loco("damp").success

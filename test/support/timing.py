@@ -97,6 +97,9 @@ WALK_SIM_S: Final = margin(8.0)
 #: on the sim's record, not by the wait): long enough for a loaded machine to deliver the request, which the
 #: record must show received before the verdict.
 FAULTY_ROBOT_RPC_TIMEOUT_S: Final = margin(1.0)
+#: The node's robot-call timeout (``rpc_timeout_s``) in tests that are not about a slow robot: a sim starved by the
+#: suite's load has answered a SwitchToInternalCtrl after more than the default 1 s.
+LOADED_RPC_TIMEOUT_S: Final = margin(3.0)
 #: The robot handles a request within this of receiving it, or it is slow (the sim's handlers take milliseconds;
 #: the bound leaves room for a loaded machine, and stays far below the clients' timeouts).
 HANDLED_WITHIN_S: Final = margin(1.0)
