@@ -30,8 +30,9 @@ def test_an_estop_mid_dance_damps_the_robot_and_ends_the_policys_frames(shared_s
                 if abs(e["kp_max"] - POLICY_KP_MAX) < 1e-3]
 
     assert wait_until(lambda: bool(policy_frames()), RECORD_WAIT_S), "no frame of the policy's on the record"
-    # a moment into the clip (the record's clock is this process's monotonic clock)
-    time.sleep(max(0.0, policy_frames()[0] + read_config(POLICY)[1]["start_hold_s"] + 0.3 - time.monotonic()))
+    # just into the clip (the record's clock is this process's monotonic clock): in the sim the robot falls within a
+    # second of the clip's start (docs/robot_compat.md), and the e-stop is judged while the policy drives it
+    time.sleep(max(0.0, policy_frames()[0] + read_config(POLICY)[1]["start_hold_s"] + 0.1 - time.monotonic()))
     assert seen[-1].phase == "running", (seen[-1].phase, seen[-1].last_fault)
     stack.match_estop()
     t0 = time.monotonic()
