@@ -276,6 +276,7 @@ def test_a_warning_reaches_mode_when_it_happens_and_a_fall_while_the_autonomy_dr
         planner.stop()
 
 
+@pytest.mark.latency_only
 def test_a_steady_drive_keeps_its_move_alive_at_the_keep_alives_rate_on_the_record(shared_stack_factory) -> None:
     """cmd_vel_rate_hz (10): a teleop holding one command gets one Move every 100 ms on the robot, not one every
     other period."""

@@ -14,7 +14,7 @@ from g1_mode_manager.policy.deploy_config import read_config
 from support.mode_manager import wait_until
 from support.timing import ESTOP_FRAME_S, RECORD_WAIT_S, check_latency
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.latency_only]
 
 POLICY = "dance_fastsac"
 
