@@ -157,6 +157,20 @@ def test_a_hold_frame_after_the_estop_is_a_violation_and_after_leaving_low_level
     assert len(bad) == 1 and "s after leaving LOW_LEVEL" in bad[0], bad
 
 
+
+def test_a_user_frame_late_in_flight_before_the_nodes_exit_frames_is_not_after_leaving_low_level() -> None:
+    claims = Claims(t_estop=20.0)
+    claims.modes = [(2.1, _mode(LOW_LEVEL)), (4.0, _mode(LOW_LEVEL, transition=True)), (5.1, _mode(IDLE)),
+                    (20.01, _mode(EMERGENCY, True))]
+    late = _user_lowcmd(4.0 + 2 * GRACE_S, 40.0)  # sent before the leave, delayed on a loaded machine
+    exit_frames = [_user_lowcmd(4.0 + 2 * GRACE_S + 0.001 + 0.02 * k, HOLD_KP) for k in range(5)]
+    assert judge(_user_ctrl_record(late, *exit_frames), claims, END, path="user_ctrl") == []
+    # the same user frame after the node's own exit frames was sent after the leave
+    early_exit = [_user_lowcmd(3.99 + 0.02 * k, HOLD_KP) for k in range(2)]
+    bad = judge(_user_ctrl_record(*early_exit, late, *exit_frames), claims, END, path="user_ctrl")
+    assert len(bad) == 1 and "s after leaving LOW_LEVEL" in bad[0], bad
+
+
 # --- who drives: the planner's Moves only while handed the robot, within the autonomy's limits -----------------
 COMMAND = (0.7, 0.4, -1.0)  # past every autonomy limit (0.5, 0.3, 0.8): the node clamps it
 
