@@ -179,8 +179,12 @@ def _sent_before_the_exit(events: list[Event], i: int, t_left: float) -> bool:
     reached the robot after it, and none since shortly before the claim before it (a loaded machine delays a frame in
     flight past GRACE_S). A record without the node's exit frames excuses nothing."""
     e = events[i]
-    own = [j for j, x in enumerate(events)
-           if _own_frame(x) and x["topic"] == e["topic"] and x["t"] >= t_left - EXIT_CLAIM_LAG_S]
+    # from the user's last frame that reached the robot before the claim: the entry's hand-over frames come before
+    # the user's first, and are no exit
+    start = max((j for j, x in enumerate(events[:i]) if _user_frame(x) and x["topic"] == e["topic"] and x["t"] <= t_left),
+                default=0)
+    own = [j for j, x in enumerate(events) if j > start and _own_frame(x) and x["topic"] == e["topic"]
+           and x["t"] >= t_left - EXIT_CLAIM_LAG_S]
     return bool(own) and min(own) > i
 
 
