@@ -17,6 +17,12 @@ Event = dict[str, Any]
 DAMP_PARAMETER = {"data": 1}
 
 
+class IncompleteRecordError(AssertionError):
+    """The sim dropped frames that reached it (a ``drop`` event): what it did not look at is not on the record, so
+    nothing may be judged by it. An AssertionError: a test reading such a record fails, it is not an error of its
+    own."""
+
+
 class SimRecord:
     """The events of one bridge's record file, read up to date on every call (the bridge appends while we
     read). Lines already read are kept, not parsed again: the record holds a ``body`` event every 10 ms of
@@ -26,6 +32,7 @@ class SimRecord:
         """``from_now``: only what the bridge records from now on (a test sharing the bridge of its file)."""
         self.path = Path(path)
         self._events: list[Event] = []
+        self._drop: Event | None = None  # the first ``drop`` read: from then on every read raises
         self._offset = self.path.stat().st_size if from_now and self.path.exists() else 0
 
     def events(self, since: float = float("-inf")) -> list[Event]:
@@ -37,13 +44,18 @@ class SimRecord:
             return
         with self.path.open("rb") as f:
             if f.seek(0, 2) < self._offset:  # a new file at the same path: start over
-                self._events, self._offset = [], 0
+                self._events, self._offset, self._drop = [], 0, None
             f.seek(self._offset)
             for line in f:
                 if not line.endswith(b"\n"):
                     break  # a line still being written
                 self._offset += len(line)
-                self._events.append(json.loads(line))
+                event = json.loads(line)
+                self._events.append(event)
+                if event["k"] == "drop" and self._drop is None:
+                    self._drop = event
+        if self._drop is not None:
+            raise IncompleteRecordError(f"the sim dropped frames it received, its record is not complete: {self._drop}")
 
     def after_last_reset(self) -> list[Event]:
         events = self.events()

@@ -59,21 +59,6 @@ def _user_frame(e: Event) -> bool:
             and not (e["topic"] == "user_lowcmd" and e["kp_max"] == HOLD_KP))
 
 
-def _sent_before_the_nodes_damping(events: list[Event], t_estop: float) -> set[int]:
-    """ids of joint frames stamped late (``late``: the sim's handler stamped them, they arrived earlier) that came
-    before the node's first damping frame on their topic stamped from the e-stop on. One reader handles a topic in
-    arrival order, so such a frame reached the robot before the node's damping began: a starved sim can stamp a
-    frame sent before the e-stop after it. A late-stamped frame after that damping frame is judged by its stamp."""
-    kept: set[int] = set()
-    for topic in JOINT_TOPICS:
-        frames = [e for e in events if e["k"] == "frame" and e["topic"] == topic]
-        first = next((i for i, e in enumerate(frames) if e["t"] >= t_estop and e["kp_max"] == 0 and not e.get("late")),
-                     None)
-        if first is not None:
-            kept.update(id(e) for e in frames[:first] if e.get("late"))
-    return kept
-
-
 def judge(events: list[Event], claims: Claims, end_state: dict[str, Any], path: str = "release") -> list[str]:
     """Violations of the safety invariants, from the robot's record; [] if none. ``path``: the node's
     low_level_path."""
@@ -101,9 +86,8 @@ def judge(events: list[Event], claims: Claims, end_state: dict[str, Any], path: 
         bad.append("no Damp reached the robot after the e-stop")
     else:
         cut = confirming["t"]
-        sent_before_damping = _sent_before_the_nodes_damping(events, claims.t_estop)
         for e in after:
-            if e["t"] <= cut or id(e) in sent_before_damping:
+            if e["t"] <= cut:
                 continue
             if e["k"] == "req" and any(velocity_of(e) or []):
                 bad.append(f"Move after the e-stop: {e}")

@@ -330,19 +330,3 @@ def test_drive_cells_name_what_the_scenario_showed() -> None:
     events.append(_move(19.7, (0.0, 0.0, 0.0))[0])
     cells = drive_cells(sorted(events, key=lambda e: e["t"]), modes, log, t_estop=20.0)
     assert TAKE_OVER_SERVICE in cells and LEFT_WHILE_AUTONOMY in cells and ESTOP_WHILE_AUTONOMY not in cells, cells
-
-
-def test_a_late_stamped_hold_frame_that_arrived_before_the_nodes_damping_is_not_judged_by_its_stamp() -> None:
-    """The sim's handler stamps a frame itself when its arrival listener lost the race for the GIL (``late``): one
-    sent before the e-stop may then carry a time after it. Before the node's damping frame in the topic's arrival
-    order it reached the robot before the damping began; after it, or stamped on time, it is a violation."""
-    claims = Claims(t_estop=20.0)
-    claims.modes = [(2.1, _mode(LOW_LEVEL)), (20.01, _mode(EMERGENCY, True))]
-    late_hold = {**_user_lowcmd(20.5, HOLD_KP, "not_user_ctrl"), "late": True}
-    damping = _user_lowcmd(20.004, 0.0, "not_user_ctrl")
-    assert judge(_user_ctrl_record(late_hold, damping), claims, END, path="user_ctrl") == []
-    on_time_hold = _user_lowcmd(20.5, HOLD_KP, "not_user_ctrl")
-    bad = judge(_user_ctrl_record(on_time_hold, damping), claims, END, path="user_ctrl")
-    assert bad == [f"user_lowcmd frame (kp {HOLD_KP}) after the e-stop"], bad
-    bad = judge(_user_ctrl_record(damping, late_hold), claims, END, path="user_ctrl")
-    assert bad == [f"user_lowcmd frame (kp {HOLD_KP}) after the e-stop"], bad

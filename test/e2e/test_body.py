@@ -113,9 +113,8 @@ def _user_frames(stack, since: float) -> list[dict]:
 
 def _user_frames_after_damping(stack, since: float) -> list[dict]:
     """The controller's frames the robot applied after the first damping frame it handled since ``since``. Judged
-    by the record's order: one reader handles rt/lowcmd in arrival order, while a frame's stamp may be late (its
-    handler stamps it when the arrival listener lost the race for the GIL on a starved sim), so a user frame sent
-    before the damping can carry a time after the damping frame's."""
+    by the record's order (arrival order per topic): a user frame the relay wrote before its damping frame can
+    still reach the robot after the stop began, but not after that frame."""
     frames = [e for e in stack.record.events(since) if e["k"] == "frame" and e["topic"] == "lowcmd"]
     first = next((i for i, e in enumerate(frames) if e["kp_max"] == 0), len(frames))
     return [e for e in frames[first:] if e["kp_max"] > 0 and e["ok"]]

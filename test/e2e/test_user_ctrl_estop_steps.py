@@ -84,10 +84,9 @@ def _estop_inside(stack, interrupted: list, thread: threading.Thread, controller
 
 
 def _user_frames_after_the_stop(ev: list[dict], t0: float) -> list[dict]:
-    """User frames the robot handled after the node's first own frame (hold or damping) stamped from ``t0`` on. One
-    reader handles rt/user_lowcmd in arrival order, so the record's order is the order the node sent them in; a
-    stamp may be late (the handler stamps a frame itself when the arrival listener lost the race for the GIL), so a
-    user frame sent before the stop can carry a time after it."""
+    """User frames the robot handled after the node's first own frame (hold or damping) stamped from ``t0`` on. The
+    record holds rt/user_lowcmd in arrival order, which is the order the node sent them in (one writer): a user frame
+    the relay wrote before the stop can reach the robot after ``t0``, but not after the node's own frame."""
     frames = [e for _, e in frames_on(ev, "user_lowcmd")]
     first = next((i for i, e in enumerate(frames) if e["t"] >= t0 and e["kp_max"] != USER_KP), None)
     if first is None:  # no own frame after the e-stop: judged by the stamps alone

@@ -2,6 +2,7 @@
 
 from harness.sim_record import (
     Event,
+    IncompleteRecordError,
     SimRecord,
     confirming_damp,
     damped,
@@ -14,5 +15,5 @@ from harness.sim_record import (
     velocity_of,
 )
 
-__all__ = ["Event", "SimRecord", "confirming_damp", "damped", "fsm_of", "is_damp", "of_kind", "requests", "sent_at",
-           "states", "velocity_of"]
+__all__ = ["Event", "IncompleteRecordError", "SimRecord", "confirming_damp", "damped", "fsm_of", "is_damp", "of_kind",
+           "requests", "sent_at", "states", "velocity_of"]

@@ -55,6 +55,7 @@ NOT_DEBUG_MODE: Final = "not_debug_mode"  # lowcmd while the sport service owns 
 NOT_STANDING: Final = "not_standing"  # arm_sdk while the controller neither stands nor walks
 USER_CTRL_ACTIVE: Final = "user_ctrl_active"  # lowcmd while user control holds the joints
 NOT_USER_CTRL: Final = "not_user_ctrl"  # user_lowcmd outside user control
+DROPPED: Final = "dropped"  # arrived, never handled: the sim's handler fell too far behind (frame_reader.py)
 # Informational (the frame still acts).
 MODE_MACHINE_NOT_5: Final = "mode_machine_not_5"
 MOTORS_DISABLED: Final = "motors_disabled"
@@ -67,10 +68,10 @@ CRC_NONE: Final = "none"  # 0 (and the content's CRC is not 0)
 CRC_WRONG: Final = "wrong"
 
 _MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
-#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp, the CRC of the frame's content, its crc
-#: field as CRC_OK / CRC_NONE / CRC_WRONG): for the sim's record (the content's CRC finds the frame's receive
-#: time, see arrivals.py).
-FrameHook = Callable[[str, "str | None", float, float, int, str], None]
+#: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp, its crc field as CRC_OK / CRC_NONE /
+#: CRC_WRONG, when it arrived (None: not known), its arrival number on the topic (None: not known)): for the sim's
+#: record.
+FrameHook = Callable[[str, "str | None", float, float, str, "float | None", "int | None"], None]
 
 
 def crc_state(field: int, content: int) -> str:
@@ -120,13 +121,19 @@ class CommandIntake:
             for key in keys:
                 counter[key] += 1
 
+    def on_dropped(self, topic: str, count: int) -> None:
+        """``count`` frames of ``topic`` arrived and were never looked at."""
+        with self._lock:
+            self._counts[topic][DROPPED] += count
+
     def counts(self) -> dict[str, dict[str, int]]:
         with self._lock:
             return {topic: dict(sorted(c.items())) for topic, c in self._counts.items()}
 
-    def on_lowcmd(self, msg: LowCmd_) -> str | None:
-        """Apply a rt/lowcmd frame; returns the reason it was ignored, or None."""
-        return self._on_joint_frame(LOWCMD, msg, self._apply_lowcmd)
+    def on_lowcmd(self, msg: LowCmd_, at: float | None = None, n: int | None = None) -> str | None:
+        """Apply a rt/lowcmd frame that arrived at ``at`` as the topic's ``n``-th; returns the reason it was ignored,
+        or None."""
+        return self._on_joint_frame(LOWCMD, msg, self._apply_lowcmd, at, n)
 
     def _apply_lowcmd(self, m: np.ndarray, enabled: np.ndarray) -> str | None:
         if self._robot.user_ctrl_active:
@@ -136,16 +143,16 @@ class CommandIntake:
         self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
         return None
 
-    def on_user_lowcmd(self, msg: LowCmd_) -> str | None:
-        """Apply a rt/user_lowcmd frame; returns the reason it was ignored, or None. The robot decides whether
-        user control is in force (under its lock, so a frame never lands on the wrong side of the switch)."""
-        return self._on_joint_frame(USER_LOWCMD, msg, self._apply_user_lowcmd)
+    def on_user_lowcmd(self, msg: LowCmd_, at: float | None = None, n: int | None = None) -> str | None:
+        """Apply a rt/user_lowcmd frame as ``on_lowcmd``. The robot decides whether user control is in force (under
+        its lock, so a frame never lands on the wrong side of the switch)."""
+        return self._on_joint_frame(USER_LOWCMD, msg, self._apply_user_lowcmd, at, n)
 
     def _apply_user_lowcmd(self, m: np.ndarray, enabled: np.ndarray) -> str | None:
         return None if self._robot.apply_user_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled) else NOT_USER_CTRL
 
-    def _on_joint_frame(self, topic: str, msg: LowCmd_,
-                        apply: Callable[[np.ndarray, np.ndarray], str | None]) -> str | None:
+    def _on_joint_frame(self, topic: str, msg: LowCmd_, apply: Callable[[np.ndarray, np.ndarray], str | None],
+                        at: float | None, n: int | None) -> str | None:
         """A frame that drives all 29 motors: the robot's checks of any such frame, then ``apply`` (the topic's own
         rule, which applies the frame or says why not); counted, and recorded through ``on_frame``."""
         self._last_frame_at = time.monotonic()
@@ -161,11 +168,11 @@ class CommandIntake:
         else:
             self._ignore(topic, why)
         if self._on_frame is not None:
-            self._on_frame(topic, why, 0.0, float(np.nanmax(m[4])), content, crc_state(int(msg.crc), content))
+            self._on_frame(topic, why, 0.0, float(np.nanmax(m[4])), crc_state(int(msg.crc), content), at, n)
         return why
 
-    def on_arm_sdk(self, msg: LowCmd_) -> str | None:
-        """Apply a rt/arm_sdk frame; returns the reason it was ignored, or None."""
+    def on_arm_sdk(self, msg: LowCmd_, at: float | None = None, n: int | None = None) -> str | None:
+        """Apply a rt/arm_sdk frame as ``on_lowcmd``."""
         self._last_frame_at = time.monotonic()
         content = self._crc(msg)
         crc = crc_state(int(msg.crc), content)
@@ -180,7 +187,7 @@ class CommandIntake:
         else:
             self._ignore(ARM_SDK, why)
         if self._on_frame is not None:
-            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), content, crc)
+            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), crc, at, n)
         return why
 
     def _check_arm_sdk(self, m: np.ndarray, weight: float) -> str | None:

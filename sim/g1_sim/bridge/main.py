@@ -215,7 +215,7 @@ class Bridge:
         self._user_lowcmd_topic = USER_LOWCMD
         frame_hook = self._frame if self.record.enabled else None
         self.intake = CommandIntake(self.robot, on_frame=frame_hook)
-        self.subscribers = CommandSubscribers(self.intake, stamp_arrivals=self.record.enabled)
+        self.subscribers = CommandSubscribers(self.intake, on_drop=self._dropped if self.record.enabled else None)
         self.loop = SimLoop(self.robot, self.publishers, self.faults, self.pacer, node=node, stamps=StampClock(),
                             on_body=self._body if self.record.enabled else None,
                             on_odom=self._odom if self.record.enabled else None,
@@ -228,6 +228,7 @@ class Bridge:
 
     def shutdown(self) -> None:
         self.loop.stop()
+        self.subscribers.stop()
         for server in self.servers:
             server.cancel_delayed()
         self.record.close()
@@ -281,12 +282,15 @@ class Bridge:
         self.record.event("done", svc=service, api=api_id, p=parameter, code=code)
         self._record_state()
 
-    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, content_crc: int, crc: str) -> None:
-        at = self.subscribers.arrival(topic, content_crc) if hasattr(self, "subscribers") else None
+    def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, crc: str, at: float | None,
+               n: int | None) -> None:
         if topic == self._user_lowcmd_topic:  # the switch to fsm 1000 is on the record before any user frame it let through
             self._record_state()
-        late = {"late": True} if at is None else {}  # the handler's own stamp: the frame arrived before it
-        self.record.event("frame", at=at, topic=topic, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc, **late)
+        self.record.event("frame", at=at, topic=topic, n=n, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc)
+
+    def _dropped(self, topic: str, first: int, count: int) -> None:
+        """Frames that reached the sim and were never looked at: the record is not complete, and says so."""
+        self.record.event("drop", topic=topic, n=first, count=count)
 
     def _body(self, sim_time: float, s: Any, report: Any) -> None:
         """The record's ``body`` event (every 10 ms of sim time): what a body supervisor's checks read."""
@@ -332,6 +336,7 @@ class Bridge:
             "requests": self.requests.snapshot(),
             "recent_requests": self.requests.recent(),
             "frames": self.intake.counts(),
+            "frame_readers": self.subscribers.stats(),
             "published": self.publishers.counts(),
             "readers": self.publishers.readers(),
             "firmware": dict(getattr(robot, "counters", {})),

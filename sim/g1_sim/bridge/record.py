@@ -8,12 +8,15 @@ of the machine, so a test can compare it with the moment it sent something). Kin
   built the request). ``t`` is when the sim's Cyclone delivered it (see arrivals.py), so lines are not always in
   ``t`` order.
 * ``done``: the same request handled (after any injected delay): ``svc``, ``api``, ``p``, ``code``.
-* ``frame``: an rt/lowcmd, rt/user_lowcmd or rt/arm_sdk frame: ``topic``, ``ok``, ``why`` (ignore reason or null),
-  ``w`` (arm_sdk blend weight), ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok",
-  "none" = left 0, "wrong"; rt/lowcmd and rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` as for
-  ``req``; ``late`` (present and true) when ``t`` is the frame handler's own stamp because the arrival listener
-  lost the race for the GIL (arrivals.py): the frame arrived earlier than ``t``. One reader handles a topic's
-  frames in arrival order, so the file's order of one topic's frames is their arrival order.
+* ``frame``: an rt/lowcmd, rt/user_lowcmd or rt/arm_sdk frame: ``topic``, ``n`` (its arrival number on the topic,
+  counted from 1 since the sim started), ``ok``, ``why`` (ignore reason or null), ``w`` (arm_sdk blend weight),
+  ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok", "none" = left 0, "wrong"; rt/lowcmd and
+  rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` is when the sim's Cyclone delivered it. Every frame
+  that reached the sim is on the record, in arrival order per topic (frame_reader.py), unless a ``drop`` says
+  otherwise.
+* ``drop``: ``count`` frames of ``topic`` from arrival number ``n`` on reached the sim and were never looked at (its
+  handler fell behind by more than frame_reader.MAX_BACKLOG): from there on the record is not complete, and a
+  reader of it must not judge frames by it (harness/sim_record.py raises).
 * ``state``: the robot's controller state changed: ``fsm`` (the controller's, even in debug mode),
   ``svc`` (the motion switcher's service, '' = released), ``fsm_mode``. A state is on the record before
   any rt/sportmodestate frame or RPC reply shows it; fsm 1000 is user control, and its ``state`` line is

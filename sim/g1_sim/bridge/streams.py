@@ -3,41 +3,30 @@ rt/secondary_imu, rt/odommodestate and rt/lf/odommodestate out, rt/lowcmd, rt/us
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
-from typing import Any, Final, Protocol
+from typing import Protocol
 
 import numpy as np
-from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
+from unitree_sdk2py.core.channel import ChannelPublisher
 from unitree_sdk2py.idl.default import unitree_hg_msg_dds__BmsState_
 
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.cyclone_internals import write_serialized, writer_use_version_2
-from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowCmd_, LowState_, OdomModeState_, SportModeState_
+from g1_mode_manager.protocol.idl import BmsState_, IMUState_, LowState_, OdomModeState_, SportModeState_
 from g1_mode_manager.protocol.odom_fields import OdomFields, encode_odom
 from g1_mode_manager.protocol.side_by_side import side_by_side
 from g1_mode_manager.protocol.unitree_sdk_internals import (
-    channel_datareader,
     channel_datawriter,
     channel_matched_readers,
     publisher_channel,
-    subscriber_channel,
 )
 from g1_sim.bridge import imu_codec
-from g1_sim.bridge.arrivals import Arrivals, lowcmd_content_crc
 from g1_sim.bridge.body_report import BodyReport
 from g1_sim.bridge.commands import CommandIntake
+from g1_sim.bridge.frame_reader import FrameReader
 from g1_sim.bridge.lowstate_codec import LowStatePacker, self_check
 from g1_sim.physics.battery import CELLS
 
-log = logging.getLogger(__name__)
-
-#: Reader queue lengths of the command topics: the SDK's reader drops every new frame beyond them. rt/lowcmd:
-#: the robot's 500 Hz loop takes the latest frame, so a stalled sim may skip stale ones (4 = 8 ms); rt/user_lowcmd
-#: likewise. rt/arm_sdk:
-#: every 50 Hz frame, as the robot (C++, no GIL) receives them: a sim process starved for 150 ms on a
-#: loaded machine dropped 3-4 frames of 4 and recorded arm weight steps the node never sent (1.28 s here).
-COMMAND_QUEUE_LEN: Final = {topics.LOWCMD: 4, topics.USER_LOWCMD: 4, topics.ARM_SDK: 64}
 #: BmsState_ fields the sim has no model for: plausible constants (firmware version, health, cycles).
 BMS_VERSION = (1, 0)
 BMS_SOH = 100
@@ -233,35 +222,31 @@ def _matched_readers(publisher: ChannelPublisher) -> int:
 
 
 class CommandSubscribers:
-    """Readers of rt/lowcmd, rt/user_lowcmd and rt/arm_sdk, feeding a CommandIntake."""
+    """Readers of rt/lowcmd, rt/user_lowcmd and rt/arm_sdk, feeding a CommandIntake every frame in arrival order
+    (frame_reader.py)."""
 
-    def __init__(self, intake: CommandIntake, *, stamp_arrivals: bool = False) -> None:
-        self._subs: list[Any] = []
-        self._arrivals: dict[str, Arrivals] = {}
+    def __init__(self, intake: CommandIntake, *, on_drop: Callable[[str, int, int], None] | None = None) -> None:
+        """``on_drop(topic as the record names it, first arrival number dropped, how many)``."""
+        self._readers: list[FrameReader] = []
         for topic, handler in ((topics.LOWCMD, intake.on_lowcmd), (topics.USER_LOWCMD, intake.on_user_lowcmd),
                                (topics.ARM_SDK, intake.on_arm_sdk)):
-            sub = ChannelSubscriber(topic, LowCmd_)
-            sub.Init(_logged(topic, handler), COMMAND_QUEUE_LEN[topic])
-            self._subs.append(sub)
-            if stamp_arrivals:  # for the sim's record: receive times where Cyclone delivers (arrivals.py)
-                reader = channel_datareader(subscriber_channel(sub))
-                stamps = Arrivals(reader, lowcmd_content_crc, window=2 * COMMAND_QUEUE_LEN[topic])
-                self._arrivals[topic.removeprefix("rt/")] = stamps
+            name = topic.removeprefix("rt/")
+            self._readers.append(FrameReader(topic, handler, on_drop=_dropped(name, intake, on_drop)))
 
-    def arrival(self, topic: str, content_crc: int) -> float | None:
-        """When the frame whose content has this CRC reached the process (``topic`` as the record names it),
-        or None (see arrivals.py: the key is never the frame's own crc field)."""
-        arrivals = self._arrivals.get(topic)
-        return arrivals.pop(content_crc) if arrivals is not None else None
+    def stats(self) -> dict[str, dict[str, int]]:
+        """Per topic: frames arrived, dropped, and the deepest backlog so far."""
+        return {reader.topic.removeprefix("rt/"): reader.stats() for reader in self._readers}
+
+    def stop(self) -> None:
+        for reader in self._readers:
+            reader.stop()
 
 
-def _logged(topic: str, handler: Callable[[LowCmd_], object]) -> Callable[[LowCmd_], None]:
-    """An exception would end the SDK's reader thread for good: log it and go on."""
+def _dropped(topic: str, intake: CommandIntake,
+             on_drop: Callable[[str, int, int], None] | None) -> Callable[[int, int], None]:
+    def dropped(first: int, count: int) -> None:
+        intake.on_dropped(topic, count)
+        if on_drop is not None:
+            on_drop(topic, first, count)
 
-    def run(msg: LowCmd_) -> None:
-        try:
-            handler(msg)
-        except Exception:
-            log.exception("frame on %s failed", topic)
-
-    return run
+    return dropped
