@@ -1,7 +1,8 @@
 """``sim_bridge``: the MuJoCo G1 behind the robot's own Unitree SDK2 DDS interface, plus a ROS 2 node.
 
     sim_bridge [--speed X] [--domain N] [--interface lo] [--faults JSON] [--gantry] [--soc PERCENT]
-               [--user-ctrl none|from_damp|from_walkrun|either] [--record FILE] [--ros-args -p "faults:='{...}'"]
+               [--user-ctrl none|from_damp|from_walkrun|either] [--boot-posture standing|squat|lying]
+               [--record FILE] [--ros-args -p "faults:='{...}'"]
 
 ROS parameter values are YAML, so a JSON faults value needs YAML quotes inside the shell's:
 ``--ros-args -p "faults:='{\"drop\": [7101]}'"``.
@@ -26,6 +27,7 @@ import numpy as np
 from g1_sim.bridge.record import record_state
 from g1_sim.firmware.user_ctrl import DEFAULT_OPTION, UserCtrlOption
 from g1_sim.physics.battery import START_SOC
+from g1_sim.physics.boot_posture import BootPosture
 
 READY_LINE = "sim_bridge ready"
 EXIT_BAD_CONFIG = 2
@@ -50,6 +52,10 @@ def parse_cli(argv: Sequence[str]) -> argparse.Namespace:
     p.add_argument("--user-ctrl", choices=[o.value for o in UserCtrlOption], default=DEFAULT_OPTION.value,
                    help="the firmware's SwitchToUserCtrl (sport 7110): where it is accepted, or 'none' (3203, older "
                         f"firmware); fault key user_ctrl changes it at run time (default {DEFAULT_OPTION.value})")
+    p.add_argument("--boot-posture", choices=[b.value for b in BootPosture], default=BootPosture.STANDING.value,
+                   help="how the robot starts, and comes back after a reset: standing in lock stand (fsm 4), or "
+                        "folded in a squat or lying on its back, damped (fsm 1): the vendor's power-on flows "
+                        f"(default {BootPosture.STANDING.value})")
     p.add_argument("--viewer", action="store_true",
                    help="MuJoCo's passive viewer with the head LED drawn (needs a display; headless: a warning)")
     args = p.parse_args(list(argv))
@@ -107,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         node = BridgeNode(overrides=_overrides(args))
         try:
             bridge = Bridge(node, assets=args.assets, seed=args.seed, stop=stop.event, record=args.record,
-                            soc=args.soc, user_ctrl=args.user_ctrl)
+                            soc=args.soc, user_ctrl=args.user_ctrl, boot_posture=args.boot_posture)
         except FaultConfigError as e:
             node.get_logger().error(f"bad faults parameter: {e}")
             return EXIT_BAD_CONFIG
@@ -151,7 +157,7 @@ class Bridge:
 
     def __init__(self, node: Any, *, assets: str | None, seed: int, stop: threading.Event,
                  record: str | None = None, soc: float = START_SOC,
-                 user_ctrl: str = DEFAULT_OPTION.value) -> None:
+                 user_ctrl: str = DEFAULT_OPTION.value, boot_posture: str = BootPosture.STANDING.value) -> None:
         from g1_mode_manager.protocol import api_ids as api
         from g1_mode_manager.protocol.dds import init_channels
         from g1_mode_manager.protocol.side_by_side import side_by_side
@@ -183,7 +189,9 @@ class Bridge:
         t0 = time.monotonic()
         self._gantry = p.gantry  # a rig setting: a reset keeps it
         self._user_ctrl = user_ctrl  # the firmware option unless the faults' user_ctrl says otherwise
-        self._make_robot = lambda: SimG1(assets, seed=seed, start_soc=soc, gantry=self._gantry, user_ctrl=user_ctrl)
+        self._boot_posture = BootPosture(boot_posture)  # where a reset starts the robot again
+        self._make_robot = lambda: SimG1(assets, seed=seed, start_soc=soc, gantry=self._gantry, user_ctrl=user_ctrl,
+                                         start_posture=self._boot_posture)
         self.robot = RobotSlot(self._make_robot())  # every part holds the slot, so reset() can swap the robot
         log.info("robot ready in %.1f s (dt %.4f s)", time.monotonic() - t0, self.robot.dt)
         init_channels(p.dds_domain, p.network_interface, serve_multicast=True)  # found by every kind of client
@@ -234,7 +242,8 @@ class Bridge:
         self.record.close()
 
     def reset(self) -> None:
-        """Back to the boot state: a fresh robot (standing, "ai"), no faults, nothing delayed in flight."""
+        """Back to the boot state: a fresh robot ("ai" selected; standing, or as --boot-posture put it), no faults,
+        nothing delayed in flight."""
         from g1_sim.bridge.faults import FaultConfig
 
         for server in self.servers:
@@ -325,6 +334,7 @@ class Bridge:
         b = robot.base_pose()
         return {
             "sim_time": robot.time,
+            "boot_posture": self._boot_posture.value,
             "speed": self.pacer.speed,
             "real_time_factor": self.loop.rate.real_time_factor,
             "mean_real_time_factor": self.loop.rate.mean_real_time_factor,

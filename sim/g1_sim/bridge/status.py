@@ -13,7 +13,8 @@ from typing import Any, Final
 STATUS_SERVICE: Final = "g1_sim"
 STATUS_API_VERSION: Final = "1.0.0.0"
 STATUS_GET: Final = 9001
-#: Back to the boot state (standing, "ai" selected, no faults): a harness runs many scenarios on one bridge.
+#: Back to the boot state ("ai" selected, no faults; standing unless --boot-posture says otherwise): a harness runs
+#: many scenarios on one bridge.
 STATUS_RESET: Final = 9002
 
 

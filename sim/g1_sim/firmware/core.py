@@ -6,7 +6,9 @@ controller holds the joints and whether it balances, the robot's posture, and th
 
 Boot: by default the robot starts *standing* in lock-stand (fsm 4) with the "ai" service selected,
 because that is what a user of the sim wants first. ``start_fsm=0``/``1`` boots limp or damping,
-``start_service=""`` boots straight into debug mode (as some robots do).
+``start_service=""`` boots straight into debug mode (as some robots do). ``start_posture`` "squat" or "lying"
+starts the robot folded in a squat or lying on its back (physics/boot_posture.py), damping unless ``start_fsm``
+says zero torque: the vendor's power-on flows start there.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from g1_sim.firmware.posture import Posture, posture_of
 from g1_sim.firmware.state import BasePose
 from g1_sim.firmware.user_ctrl import DEFAULT_DELAY_S, DEFAULT_OPTION, UserCtrl, check_delay, parse_option
 from g1_sim.physics.battery import START_SOC
+from g1_sim.physics.boot_posture import BootPosture, start_in
 from g1_sim.physics.controllers import (
     ArmSdkBlend,
     Controller,
@@ -42,8 +45,10 @@ from g1_sim.physics.controllers import (
     StandUpSequence,
     ZeroTorqueController,
 )
+from g1_sim.physics.fold import FOLDED_PITCH_RAD, FOLDED_POSE
 from g1_sim.physics.model import DEFAULT_POSE, G1Model, build_model, standing_qpos
 from g1_sim.physics.pelvis_forces import PelvisForces
+from g1_sim.physics.placement import place
 from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
 
 log = logging.getLogger("g1_sim.firmware")
@@ -84,14 +89,20 @@ def shared_model(root: Path) -> G1Model:
 class FirmwareCore:
     """The robot's state, its controllers and the primitives every part of the firmware uses."""
 
-    def __init__(self, assets: str | Path | None = None, *, start_fsm: int = FsmId.STAND_UP,
+    def __init__(self, assets: str | Path | None = None, *, start_fsm: int | None = None,
                  start_service: str = "ai", seed: int = 0, start_soc: float = START_SOC,
                  gantry: bool = False, user_ctrl: str = DEFAULT_OPTION,
-                 user_ctrl_delay_s: float = DEFAULT_DELAY_S) -> None:
+                 user_ctrl_delay_s: float = DEFAULT_DELAY_S,
+                 start_posture: BootPosture | str = BootPosture.STANDING) -> None:
         root = assets_dir(assets).resolve()
+        posture = BootPosture(start_posture)
+        if start_fsm is None:
+            start_fsm = FsmId.STAND_UP if posture is BootPosture.STANDING else FsmId.DAMP
+        elif start_fsm == FsmId.STAND_UP and posture is not BootPosture.STANDING:
+            raise ValueError(f"a robot booted {posture.value} is limp or damped (fsm 0 or 1), not in fsm 4")
         self._g1 = shared_model(root)
         self._data = mujoco.MjData(self._g1.model)
-        self._g1.reset(self._data)
+        start_in(self._g1, self._data, posture)
         if seed:  # seed 0 boots exactly in the keyframe; others jitter the joints a little (N(0, 5 mrad))
             self._data.qpos[7 : 7 + NUM_JOINTS] += np.random.default_rng(seed).normal(0.0, 0.005, NUM_JOINTS)
             mujoco.mj_forward(self._g1.model, self._data)
@@ -112,6 +123,9 @@ class FirmwareCore:
         self._tasks = ArmTaskPlayer()  # SetArmTask and the arm service's actions
         self._squat = PostureHarness(self._g1, SQUAT_POSE, float(standing_qpos(self._g1.model, SQUAT_POSE)[2]))
         self._sit = PostureHarness(self._g1, SIT_POSE, float(standing_qpos(self._g1.model, SIT_POSE)[2]))
+        folded = place(self._g1.model, FOLDED_POSE, FOLDED_PITCH_RAD)
+        self._fold = PostureHarness(self._g1, FOLDED_POSE, folded.height, pitch=FOLDED_PITCH_RAD,
+                                    ahead=folded.ahead)  # 706's squat
         self._stance = StanceController(self._g1)
         stand_z = float(self._g1.model.key_qpos[self._g1.stand_key][2])
         self._stand_up = StandUpSequence(self._g1, self._stance, stand_z, kp=policy.kp * 2.0, kd=policy.kd * 2.0)
@@ -142,7 +156,7 @@ class FirmwareCore:
              "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls", "remote_damps",
              "pushes", "user_ctrl_switches", "user_ctrl_refused", "internal_ctrl_switches", "user_ctrl_ignored_calls",
              "user_lowcmd_frames", "user_lowcmd_ignored", "posture_ignored"), 0)
-        self._fallen = False
+        self._fallen = posture is BootPosture.LYING  # booted on the floor: not a fall
 
         if start_service:
             if start_service not in SERVICE_NAMES:
@@ -200,7 +214,7 @@ class FirmwareCore:
     def _transition_running(self) -> bool:
         if self._ctrl in (self._stand_up, self._get_up):
             return not self._ctrl.done
-        if self._ctrl in (self._squat, self._sit):
+        if self._ctrl in (self._squat, self._sit, self._fold):
             return self._ctrl.progress < 1.0
         return False
 

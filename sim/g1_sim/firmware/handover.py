@@ -33,8 +33,8 @@ class Handover(FirmwareCore):
             self._switch(self._sit)
         elif fsm in WALKING_FSM_IDS:  # only ever entered from a balanced stand (rules)
             self._switch(self._loco)
-        elif squat_down:  # 706 from standing: StandUp2Squat, a balanced squat
-            self._switch(self._squat)
+        elif squat_down:  # 706 from standing: StandUp2Squat, down into the folded squat (physics/fold.py)
+            self._switch(self._fold)
         elif fsm == FsmId.LIE_TO_STAND:  # from damping, the robot lying (rules)
             self._switch(self._get_up)
         elif not was_balanced:  # stand-up ids from damp / squat / sit

@@ -15,7 +15,7 @@ import numpy as np
 from g1_sim.firmware.state import tilt_rad
 
 #: Lying: the pelvis tilted past the fall check's angle (terminations.hpp: 1.0 rad) and near the floor.
-#: A damped G1 in the sim lies at about 0.08 m with a tilt of 1.8 rad; a squatting one stands upright.
+#: A damped G1 in the sim lies at about 0.08 m with a tilt of 1.8 rad; folded in a squat it leans 0.2-0.55 rad.
 LYING_TILT_RAD: Final = 1.0
 LYING_HEIGHT_M: Final = 0.45
 

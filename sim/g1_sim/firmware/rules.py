@@ -8,10 +8,12 @@ where the robot's behaviour is not documented:
   remote instructions: damp, then lie-to-stand). 702 with the robot not lying, and 4 or 706 with it lying,
   answer 0 and leave the robot as it is (what a G1 does there is not documented: the least a client gets).
 * 706 from a standing fsm squats the robot down (StandUp2Squat); from damping, a squat or sit it stands the
-  robot up (Squat2StandUp). In that squat only damping and zero torque are taken: to stand again the
-  vendor's instructions go through damping first.
+  robot up (Squat2StandUp). In that squat only damping and zero torque are taken, 706 included (7301): the
+  vendor's remote guide has the way back up from it go through damping (after returning to the squat from main
+  motion control with L2+A, back to it only through L2+B, then L2+A: the guide's note as quoted in
+  phanthymotus-driver PR #215).
 * Squat (2) and sit (3) are reached from standing (or from each other), not from damping.
-* Requesting the current fsm id again is accepted and changes nothing.
+* Requesting the current fsm id again is accepted and changes nothing (but for 706 in its squat, above).
 """
 
 from __future__ import annotations
@@ -52,10 +54,10 @@ def set_fsm_verdict(current: int, requested: int, *, dynamic: bool, squatting: b
         return OK
     if dynamic:
         return ERR_REFUSED_IN_STATE
+    if squatting:  # before the same-id case: 706 again does not stand the squat up
+        return OK if requested == FsmId.ZERO_TORQUE else ERR_REFUSED_IN_STATE
     if requested == current:
         return OK
-    if squatting:
-        return OK if requested == FsmId.ZERO_TORQUE else ERR_REFUSED_IN_STATE
     return OK if current in ALLOWED_FROM[requested] else ERR_REFUSED_IN_STATE
 
 

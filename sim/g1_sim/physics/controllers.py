@@ -313,13 +313,19 @@ class PostureHarness:
     NOT the robot's real controller: a soft joint PD towards a posture plus a *virtual harness*, a
     spring-damper wrench on the pelvis (height, horizontal position, tilt; yaw is free) with gravity
     compensation, applied through ``xfrc_applied``. Pose and harness targets ramp from where the robot
-    is to the goal over ``ramp_s``. ``support`` (0..1) scales the harness, so it can be faded out.
+    is to the goal over ``ramp_s``. ``pitch``: the pelvis's goal lean, rad, forward positive (upright by
+    default). ``ahead``: the pelvis's goal place ahead of the feet's midpoint along its heading, m (None: it
+    stays where it was). ``support`` (0..1) scales the harness, so it can be faded out.
     """
 
     def __init__(self, g1: G1Model, pose: np.ndarray, height: float, *, ramp_s: float = 2.0,
-                 kp: np.ndarray | float = 120.0, kd: np.ndarray | float = 6.0) -> None:
+                 kp: np.ndarray | float = 120.0, kd: np.ndarray | float = 6.0, pitch: float = 0.0,
+                 ahead: float | None = None) -> None:
         self.goal_pose = np.asarray(pose, dtype=float)
         self.goal_height = height
+        self.goal_pitch = pitch
+        self.goal_ahead = ahead
+        self._feet = [g1.model.body(f"{side}_ankle_roll_link").id for side in ("left", "right")]
         self.ramp_s = ramp_s
         self.kp = np.broadcast_to(np.asarray(kp, dtype=float), (NUM_JOINTS,))
         self.kd = np.broadcast_to(np.asarray(kd, dtype=float), (NUM_JOINTS,))
@@ -331,7 +337,9 @@ class PostureHarness:
         self._q0 = DEFAULT_POSE.copy()
         self._z0 = height
         self._xy0 = np.zeros(2)
+        self._xy_goal = np.zeros(2)
         self._up0 = np.array([0.0, 0.0, 1.0])
+        self._up_goal = np.array([0.0, 0.0, 1.0])
         self._progress = 0.0
         self._elapsed = 0.0
 
@@ -340,7 +348,14 @@ class PostureHarness:
         self._q0 = s.q.copy()
         self._z0 = float(s.pos[2])
         self._xy0 = s.pos[0:2].copy()
-        self._up0 = s.data.xmat[self._body].reshape(3, 3)[:, 2].copy()
+        rot = s.data.xmat[self._body].reshape(3, 3)
+        self._up0 = rot[:, 2].copy()
+        heading = rot[:2, 0] / max(float(np.linalg.norm(rot[:2, 0])), 1e-9)
+        self._xy_goal = self._xy0.copy()
+        if self.goal_ahead is not None:
+            feet = 0.5 * (s.data.xpos[self._feet[0]][:2] + s.data.xpos[self._feet[1]][:2])
+            self._xy_goal = feet + self.goal_ahead * heading
+        self._up_goal = np.array((*(np.sin(self.goal_pitch) * heading), np.cos(self.goal_pitch)))
         self.support = 1.0
 
     @property
@@ -362,12 +377,13 @@ class PostureHarness:
 
     def apply_harness(self, s: Sensed, a: float) -> None:
         z_des = self._z0 + a * (self.goal_height - self._z0)
-        up_des = self._up0 + a * (np.array([0.0, 0.0, 1.0]) - self._up0)
+        up_des = self._up0 + a * (self._up_goal - self._up0)
         up_des /= np.linalg.norm(up_des)
+        xy_des = self._xy0 + a * (self._xy_goal - self._xy0)
         v = s.lin_vel_world
         force = np.array([
-            600.0 * (self._xy0[0] - s.pos[0]) - 150.0 * v[0],
-            600.0 * (self._xy0[1] - s.pos[1]) - 150.0 * v[1],
+            600.0 * (xy_des[0] - s.pos[0]) - 150.0 * v[0],
+            600.0 * (xy_des[1] - s.pos[1]) - 150.0 * v[1],
             self._weight + 4000.0 * (z_des - s.pos[2]) - 500.0 * v[2],
         ])
         up = s.data.xmat[self._body].reshape(3, 3)[:, 2]
