@@ -200,7 +200,7 @@ def mode_fields(msg: Any) -> dict[str, Any]:
             "high_level_service": service, "last_refusal": msg.last_refusal, "last_error": msg.last_error,
             "robot_mismatch": msg.robot_mismatch, "reasserts": int(msg.reasserts), "faults": list(msg.faults),
             "holds": list(msg.holds), "warnings": list(msg.warnings), "driver": msg.driver,
-            "autonomy_suspended": msg.autonomy_suspended}
+            "autonomy_suspended": msg.autonomy_suspended, "posture": msg.posture}
 
 
 def _look_key(mode: dict[str, Any]) -> str:

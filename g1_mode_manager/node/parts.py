@@ -97,7 +97,7 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
     policy_keys = _policy_keys(s, policy, body, log)
     loco = LocoCommands(port, machine, outcome_timeout_s=s.loco_outcome_timeout_s,
                         motion_timeout_s=s.loco_motion_timeout_s, get_up_timeout_s=s.loco_get_up_timeout_s,
-                        tilt=lambda: body.watch.readings.tilt_rad)
+                        posture=lambda: body.watch.posture)
     # lowcmd first: its damping frames are the urgent ones; loco last: it only wakes waiting answers
     for relay in (lowcmd, policy, arm, cmd_vel, loco):
         machine.add_leave_listener(relay.on_leave)

@@ -93,16 +93,19 @@ class StatePublishers:
             link_ok = self._parts.link.link_ok(status.mode)
             driving = self._parts.cmd_vel.sources.driving(status.mode)
             warnings = [*self._parts.body.monitor.warnings(), *self._walk_warning()]
+            posture = self._parts.body.watch.posture.posture
             # what counts as a change: a figure inside a text (an age, a measured speed) does not
-            content = (status, link_ok, driving.driver, _shape(driving.autonomy_suspended), tuple(map(_shape, warnings)))
+            content = (status, link_ok, driving.driver, _shape(driving.autonomy_suspended), tuple(map(_shape, warnings)),
+                       posture)
             if only_if_changed and content == self._published_content:
                 return
             self._published_version, self._published_content = status.version, content
-            msg = self._mode_message(status, link_ok, driving, warnings)
+            msg = self._mode_message(status, link_ok, driving, warnings, posture.value)
             msg.stamp = self._node.get_clock().now().to_msg()
             self._mode_pub.publish(msg)
 
-    def _mode_message(self, status: MachineStatus, link_ok: bool, driving: Driving, warnings: list[str]) -> ModeMsg:
+    def _mode_message(self, status: MachineStatus, link_ok: bool, driving: Driving, warnings: list[str],
+                      posture: str) -> ModeMsg:
         return ModeMsg(
             mode=int(status.mode),
             name=status.mode.name,
@@ -122,6 +125,7 @@ class StatePublishers:
             faults=list(status.faults),
             holds=list(status.holds),
             warnings=warnings,
+            posture=posture,
         )
 
     def _walk_warning(self) -> list[str]:

@@ -8,6 +8,7 @@ mode machine. ROS-free; the node runs ``step`` on a thread of its own and reads 
   motion in the mode; WARN is only reported.
 - The remote: a held e-stop combination (default L2+B) e-stops in every mode, once per press; the optional
   dead-man key is what the lowcmd relay asks before it forwards a user frame.
+- The posture (core/posture.py) from the same sample, for ~/mode and the posture verbs of ~/loco_command.
 """
 
 from __future__ import annotations
@@ -22,13 +23,17 @@ from g1_mode_manager.core.body.monitor import BodyMonitor
 from g1_mode_manager.core.body.readings import BodyReadings, readings_of
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.port import RobotPort
+from g1_mode_manager.core.port import RobotPort, StateSample
+from g1_mode_manager.core.posture import NO_READING, PostureReading, read_posture
 from g1_mode_manager.core.records import MachineStatus, Outcome
+from g1_mode_manager.protocol.fsm import FsmId
 
 #: A remote frame older than this says nothing about the keys held now (rt/lowstate: 2 ms; lf: 50 ms), s.
 REMOTE_FRESH_S = 0.2
 #: rt/sportmodestate older than this says nothing about the controller's state, s.
 SPORT_FRESH_S = 0.5
+#: A state sample older than this says nothing about the posture now (rt/lf/lowstate: 50 ms), s.
+POSTURE_FRESH_S = 0.5
 
 
 class BodyMachine(Protocol):
@@ -60,6 +65,7 @@ class BodyWatch:
         self._keys_at = float("-inf")
         self._estop_pressed = False  # the combination was held at the last look (one e-stop per press)
         self.readings = BodyReadings()
+        self.posture: PostureReading = NO_READING
 
     def period_s(self) -> float:
         """How long until the next step: short while rt/lowstate is received, long on rt/lf/lowstate alone."""
@@ -83,6 +89,7 @@ class BodyWatch:
                     self._keys = int.from_bytes(fields.remote[2:4], "little")
                     self._keys_at = now - sample.age_s
         self.readings = readings
+        self.posture = self._posture(sample, status)
         self._remote_estop(status, now)
         if not self._enabled:
             return
@@ -97,6 +104,21 @@ class BodyWatch:
             self._events.log("error", "body_hold", f"body check tripped in {status.mode.name}: {', '.join(holds)}: "
                              "no new motion until ~/clear_fault")
             self._machine.hold(holds)
+
+    def _posture(self, sample: StateSample | None, status: MachineStatus) -> PostureReading:
+        if sample is None or sample.age_s > POSTURE_FRESH_S:
+            return NO_READING
+        return read_posture(sample.fields.q, sample.fields.quaternion, limp=self._limp(status))
+
+    def _limp(self, status: MachineStatus) -> bool | None:
+        """No controller holds the joints: the built-in one damps or lets go (None: not known; released, the
+        user's frames hold them or nothing does)."""
+        if status.service_known and not status.service_active:
+            return None
+        sport = self._port.sport_state()
+        if sport is None or sport.age_s > SPORT_FRESH_S:
+            return None
+        return sport.fsm_id in (FsmId.DAMP, FsmId.ZERO_TORQUE)
 
     def _upright_expected(self, status: MachineStatus) -> bool:
         """Something is meant to hold the robot upright: the user's controller in LOW_LEVEL; in IDLE and

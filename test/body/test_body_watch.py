@@ -1,16 +1,19 @@
 """The body watch against the fake port and the real mode machine: a fall faults, a held remote
-combination e-stops once per press, the dead-man follows its key, an idle HIGH_LEVEL runs slow."""
+combination e-stops once per press, the dead-man follows its key, an idle HIGH_LEVEL runs slow, and the
+posture is read from each sample with the controller's state."""
 
 from __future__ import annotations
 
 from fakes.fake_robot_port import FakeRobotPort
 from fakes.lowstate_bytes import lowstate_bytes
 from fakes.machine_rig import Rig
+from fakes.posture_poses import POSES
 from g1_mode_manager.core.body.monitor import BodyMonitor
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import SportState
+from g1_mode_manager.core.posture import NO_READING, Posture
 from g1_mode_manager.protocol.remote import key_mask
 from g1_mode_manager.relay.body_watch import BodyWatch
 from support.mode_manager import wait_until
@@ -141,3 +144,39 @@ def test_the_remotes_keys_are_known_only_from_a_fresh_frame() -> None:
     assert watch.fresh_keys() == key_mask(("R1", "X"))
     clock.t += 0.5
     assert watch.fresh_keys() is None and not watch.keys_held(key_mask(("R1",)))
+
+
+def _fsm(port: FakeRobotPort, fsm_id: int) -> None:
+    port.sport = SportState(fsm_id=fsm_id, fsm_mode=0, task_id=0, task_time=0.0, age_s=0.01)
+
+
+def test_the_posture_is_read_from_each_sample_with_the_controllers_state() -> None:
+    watch, _machine, port, clock, _ = _watch(Mode.HIGH_LEVEL)
+    assert watch.posture == NO_READING  # before the first step
+    for q, fsm, posture in ((POSES["standing"].q, 4, Posture.STANDING),
+                            (POSES["squatting_damped"].q, 1, Posture.SQUATTING),  # limp, and folded: it squats
+                            (POSES["standing"].q, 1, Posture.UNKNOWN),  # limp on bent legs: falling, or held up
+                            ((0.0,) * 29, 0, Posture.HANGING),  # limp on straight legs, upright: held from above
+                            ((0.0,) * 29, 4, Posture.UNKNOWN)):
+        port.state = state(q=q)
+        _fsm(port, fsm)
+        _steps(watch, clock, 1)
+        assert watch.posture.posture is posture, (fsm, watch.posture)
+    port.state = state(tilt=1.8, q=POSES["lying_back"].q)
+    _fsm(port, 1)
+    _steps(watch, clock, 1)
+    assert watch.posture.posture is Posture.LYING_FRONT, watch.posture  # this sample pitches forward
+    assert watch.posture.tilt_rad is not None and abs(watch.posture.tilt_rad - 1.8) < 1e-6, watch.posture
+
+
+def test_no_sample_or_a_stale_one_reads_no_posture() -> None:
+    watch, _machine, port, clock, _ = _watch(Mode.HIGH_LEVEL)
+    port.state = state(q=POSES["standing"].q)
+    _steps(watch, clock, 1)
+    assert watch.posture.posture is Posture.STANDING
+    port.state_age = 0.6
+    _steps(watch, clock, 1)
+    assert watch.posture == NO_READING
+    port.state = None
+    _steps(watch, clock, 1)
+    assert watch.posture == NO_READING

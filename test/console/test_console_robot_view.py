@@ -21,7 +21,7 @@ def mode_msg(name: str = "HIGH_LEVEL", value: int = 2, **overrides) -> SimpleNam
     fields = dict(mode=value, name=name, transition_in_progress=False, transition_target=0,
                   high_level_service_known=True, high_level_service_active=True, damp_confirmed=False, link_ok=True,
                   last_refusal="", last_error="", robot_mismatch="", reasserts=0, faults=[], holds=[], warnings=[],
-                  driver="teleop", autonomy_suspended="")
+                  driver="teleop", autonomy_suspended="", posture="standing")
     fields.update(overrides)
     return SimpleNamespace(**fields)
 
@@ -57,10 +57,12 @@ def test_driving_is_blocked_unless_the_node_is_fresh_in_high_level_and_free_to_m
 def test_snapshot_shows_the_mode_in_its_led_look_and_the_body_values() -> None:
     clock, view = FakeClock(), RobotView()
     view.set_looks({"EMERGENCY": LedLook.parse("255 0 0 flash 0.2")})
-    view.on_mode(mode_fields(mode_msg("EMERGENCY", 4, damp_confirmed=True, transition_target=9)), clock())
+    view.on_mode(mode_fields(mode_msg("EMERGENCY", 4, damp_confirmed=True, transition_target=9,
+                                      posture="lying_back")), clock())
     view.on_diagnostics(diagnostics(5, 0.0), clock())
     snap = view.snapshot(clock())
     assert snap["mode"]["name"] == "EMERGENCY" and snap["mode"]["damp_confirmed"]
+    assert snap["mode"]["posture"] == "lying_back"  # the posture ~/mode read from the robot's body
     assert snap["mode"]["transition_target"] == "9"  # not a mode: shown as the number
     assert snap["led"] == {"rgb": [255, 0, 0], "pattern": "flash", "period_s": 0.2}
     assert snap["body"]["battery_pct"] == 87.0 and snap["body"]["tilt_rad"] == 0.05

@@ -251,6 +251,9 @@ function renderHead(s) {
   if (mode) {
     setBadge("link", mode.link_ok ? "link ok" : "LINK LOST", mode.link_ok ? "ok" : "bad");
     setBadge("service", `service ${mode.high_level_service}`, mode.high_level_service === "active" ? "ok" : "warn");
+    const posture = mode.posture || "unknown";
+    setBadge("posture", `posture ${posture.replace("_", " ")}`,
+      posture.startsWith("lying") ? "bad" : posture === "unknown" ? "warn" : posture === "standing" ? "ok" : "");
   }
   setBadge("consoles", `${s.consoles} console${s.consoles === 1 ? "" : "s"}` +
     (s.driving ? ` · ${s.driving} drives` : ""));
