@@ -10,8 +10,10 @@ import rclpy
 from g1_mode_manager_msgs.msg import Mode, SportModeState
 from g1_mode_manager_msgs.srv import LoadPolicy, LocoCommand, SetMode
 from geometry_msgs.msg import Twist
+from rcl_interfaces.srv import GetParameters
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
 from std_srvs.srv import Trigger
 
 from g1_mode_manager.topic_qos import MODE_QOS
@@ -108,8 +110,24 @@ class ManagerClient:
             time.sleep(0.05)
         return None
 
+    def mode(self) -> tuple[str, str] | None:
+        """The latest ~/mode's name and the robot's posture in it, or None before the first (the recovery reads
+        these: core/recovery.py)."""
+        with self._lock:
+            m = self.last_mode
+        return None if m is None else (m.name, m.posture)
+
     def _call(self, srv_type, name: str, request, timeout_s: float):
         return call_service(self.node, srv_type, f"{self.manager}/{name}", request, timeout_s)
+
+    def parameter(self, name: str, timeout_s: float = 2.0) -> object | None:
+        """The manager's parameter ``name``; None if the manager does not answer within ``timeout_s`` (not running)."""
+        try:
+            reply = call_service(self.node, GetParameters, f"{self.manager}/get_parameters",
+                                 GetParameters.Request(names=[name]), timeout_s, discovery_timeout_s=timeout_s)
+        except TimeoutError:
+            return None
+        return parameter_value_to_python(reply.values[0]) if reply.values else None
 
     def set_mode(self, mode_name: str, timeout_s: float = 30.0) -> SetMode.Response:
         return self._call(SetMode, "set_mode", SetMode.Request(mode_name=mode_name), timeout_s)

@@ -1,13 +1,16 @@
 """g1ctl: set modes, e-stop, send loco commands, hand the robot to the autonomy and take it back, drive with the
-keyboard, watch the mode."""
+keyboard, watch the mode, list the flight recorder's incidents."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_localhost
+from g1_mode_manager.cli.incidents import print_incidents
 from g1_mode_manager.core.loco_verbs import LOCO_VERBS
+from g1_mode_manager.core.recorder.incidents import default_folder
 
 POLICY_VERBS = ("load", "shadow", "engage", "disengage", "hold", "unload")
 
@@ -39,8 +42,9 @@ def main(argv: list[str] | None = None) -> int:
     ranges = ", ".join(f"{name} {v.values.start}..{v.values.stop - 1}" for name, v in LOCO_VERBS.items() if v.values)
     p.add_argument("value", nargs="?", type=int, default=0,
                    help=f"{ranges} (shake_hand 0 holds the hand out, 1 withdraws it)")
-    sub.add_parser("recover", help="a fallen robot up again: damp, lie_to_stand, balance_stand, each verified "
-                                   "on the robot (HIGH_LEVEL; an e-stop ends it)")
+    sub.add_parser("recover", help="a robot on the floor or folded in a squat up again: HIGH_LEVEL if needed, damp, "
+                                   "lie_to_stand or squat_to_stand by its posture, balance_stand, each verified on "
+                                   "the robot (from IDLE or HIGH_LEVEL; an e-stop ends it)")
     sub.add_parser("hand-over", help="HIGH_LEVEL: the autonomy (a planner on cmd_vel_nav) drives, within its own "
                                      "limits, until a teleop command or take-over")
     sub.add_parser("take-over", help="the teleop (cmd_vel) drives again; the autonomy's Moves stop")
@@ -50,8 +54,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("verb", choices=POLICY_VERBS)
     p.add_argument("policy", nargs="?", default="", help="load: a built-in name or a deploy config's path; "
                                                          "default the node's parameter `policy`")
+    p = sub.add_parser("incidents", help="the flight recorder's incident files (docs/recorder.md): when, mode, cause")
+    p.add_argument("--dir", type=Path, default=None,
+                   help="the folder (default: the running node's recorder_dir, else the recorder's default folder)")
     args = parser.parse_args(argv)
 
+    if args.cmd == "incidents" and args.dir is not None:  # nothing to ask the node
+        return print_incidents(args.dir)
     default_discovery_to_localhost()
     with ManagerClient(args.manager) as client:
         try:
@@ -77,6 +86,9 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
             return 3
         _print_mode(msg)
         return 0
+    if args.cmd == "incidents":
+        folder = client.parameter("recorder_dir")
+        return print_incidents(Path(folder).expanduser() if folder else default_folder())
     if args.cmd == "set-mode":
         r = client.set_mode(args.name)
         print(f"success={r.success} mode={r.mode_name}: {r.message}")
@@ -103,7 +115,8 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
     if args.cmd == "recover":
         from g1_mode_manager.core.recovery import recover
 
-        results = recover(lambda step: client.loco(step), on_step=lambda r: print(
+        client.wait_for_mode()
+        results = recover(client, on_step=lambda r: print(
             f"{r.step}: success={r.success} after {r.took_s:.2f} s: {r.message}", flush=True))
         failed = [r for r in results if not r.success]
         print(f"recover: failed at {failed[0].step}" if failed else "recover: the robot stands")

@@ -65,6 +65,7 @@ class RosBridge:
         self._stamped = False
         self.node_params: dict[str, Any] = {}
         self._last_mode_key: tuple | None = None
+        self._latest_mode: tuple[str, str] | None = None
         node.create_subscription(ModeMsg, f"{manager}/mode", self._on_mode, MODE_QOS)
         node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         # best effort matches both reliable and best-effort publishers
@@ -83,7 +84,12 @@ class RosBridge:
         self._params_timer = node.create_timer(0.25, self._read_node_params)  # until the node answers
 
     # --- state in ------------------------------------------------------------------------------------
+    def latest_mode(self) -> tuple[str, str] | None:
+        """The latest ~/mode's name and the robot's posture in it, or None before the first (any thread)."""
+        return self._latest_mode
+
     def _on_mode(self, msg: ModeMsg) -> None:
+        self._latest_mode = (msg.name, msg.posture)
         fields = mode_fields(msg)
         self._view.on_mode(fields, time.monotonic())
         key = (fields["name"], fields["transition_in_progress"], fields["damp_confirmed"], fields["last_refusal"],

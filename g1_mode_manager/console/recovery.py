@@ -2,7 +2,7 @@
 
 ``recover()`` waits for each step's verified answer (a get-up takes seconds), and the web server's event loop must
 go on serving every page meanwhile, an e-stop first. So the sequence runs in a thread of its own and asks each step
-through the event loop, as a loco button's call is made; what happens comes back to the loop to be shown. One
+through the event loop, as a mode or loco button's call is made; what happens comes back to the loop to be shown. One
 recovery at a time for all pages together: a second start is refused with who runs which step, never queued.
 An e-stop is not this module's business: the node answers the waiting step "preempted by e-stop", and the
 sequence stops there.
@@ -17,7 +17,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from typing import Any
 
-from g1_mode_manager.core.recovery import STEPS, StepResult, recover
+from g1_mode_manager.core.recovery import BALANCE_STAND, DAMP, GET_UP, GET_UPS, HIGH_LEVEL, STEPS, StepResult, recover
 
 #: A step's answer as the console's service call gives it: success and message always, code and outcome_s for a
 #: call the node answered.
@@ -26,12 +26,29 @@ Answer = dict[str, Any]
 
 @dataclass(frozen=True)
 class _Reply:
-    """What recover() reads of an answer (core.recovery.LocoAnswer)."""
+    """What recover() reads of an answer (core.recovery.Answer)."""
 
     success: bool
     message: str
-    code: int
-    outcome_s: float
+
+
+#: The step of the sequence each call belongs to, as the pages list them.
+_STEP_OF: dict[str, str] = {"set_mode": HIGH_LEVEL, DAMP: DAMP, BALANCE_STAND: BALANCE_STAND,
+                            **dict.fromkeys(GET_UPS.values(), GET_UP)}
+
+
+class _Robot:
+    """The node as recover() sees it (core.recovery.RecoveryRobot), each call made on the event loop."""
+
+    def __init__(self, call: Callable[[str, str], _Reply], mode: Callable[[], tuple[str, str] | None]) -> None:
+        self._call = call
+        self.mode = mode
+
+    def set_mode(self, mode: str) -> _Reply:
+        return self._call("set_mode", mode)
+
+    def loco(self, verb: str) -> _Reply:
+        return self._call("loco", verb)
 
 
 @dataclass
@@ -44,12 +61,16 @@ class _Run:
 class RecoveryRunner:
     """Starts the sequence for a page and tells every page each step as it is asked and answered.
 
-    ``ask(step)`` calls ~/loco_command on the event loop; ``tell(event)`` sends an event to every page. Both are
-    called on the event loop's thread, as is everything here but the sequence itself."""
+    ``ask(service, argument)`` calls ~/set_mode (argument: the mode) or ~/loco_command (the verb) on the event loop;
+    ``tell(event)`` sends an event to every page. Both are called on the event loop's thread, as is everything here
+    but the sequence itself. ``mode()`` is the latest ~/mode's name and posture (None before the first), read from
+    any thread."""
 
-    def __init__(self, ask: Callable[[str], Awaitable[Answer]], tell: Callable[[dict[str, Any]], None], *,
-                 clock: Callable[[], float] = time.monotonic, sequence: Callable[..., list[StepResult]] = recover) -> None:
+    def __init__(self, ask: Callable[[str, str], Awaitable[Answer]], tell: Callable[[dict[str, Any]], None],
+                 mode: Callable[[], tuple[str, str] | None], *, clock: Callable[[], float] = time.monotonic,
+                 sequence: Callable[..., list[StepResult]] = recover) -> None:
         self._ask = ask
+        self._mode = mode
         self._tell = tell
         self._clock = clock
         self._sequence = sequence
@@ -81,14 +102,13 @@ class RecoveryRunner:
             except RuntimeError:  # the loop is closed: the console has stopped, nobody to tell
                 pass
 
-        def loco(step: str) -> _Reply:
-            post(self._asked, step)
-            answer = asyncio.run_coroutine_threadsafe(self._ask(step), loop).result()
-            return _Reply(bool(answer["success"]), str(answer["message"]), int(answer.get("code", 0)),
-                          float(answer.get("outcome_s", -1.0)))
+        def call(service: str, argument: str) -> _Reply:
+            post(self._asked, _STEP_OF.get(argument if service == "loco" else service, argument))
+            answer = asyncio.run_coroutine_threadsafe(self._ask(service, argument), loop).result()
+            return _Reply(bool(answer["success"]), str(answer["message"]))
 
         try:
-            results = self._sequence(loco, on_step=lambda result: post(self._answered, result))
+            results = self._sequence(_Robot(call, self._mode), on_step=lambda result: post(self._answered, result))
         except Exception as exc:  # the console stopping cancels the step's call; anything else, the pages are told
             post(self._ended, [], f"the sequence stopped: {exc!r}")
             return
@@ -96,7 +116,7 @@ class RecoveryRunner:
 
     # --- back on the event loop -----------------------------------------------------------------------
     def _asked(self, run: _Run, step: str) -> None:
-        if step == run.step:  # lie_to_stand asked again while the robot comes to lie: not news
+        if step == run.step:
             return
         run.step = step
         self._tell({"event": "step", "by": run.by, "step": step})

@@ -95,7 +95,7 @@ class ConsoleServer:
         self._runner: web.AppRunner | None = None
         self._tasks: set[asyncio.Task] = set()
         self._state_error_at = -math.inf
-        self._recovery = RecoveryRunner(lambda step: self._ask("loco", loco_request(step, 0)), self._tell_recovery)
+        self._recovery = RecoveryRunner(self._ask_for_recovery, self._tell_recovery, self._bridge.latest_mode)
 
     # --- life ----------------------------------------------------------------------------------------
     def app(self) -> web.Application:
@@ -267,6 +267,11 @@ class ConsoleServer:
         elif service == "loco":
             answer.update(code=int(r.code), outcome_s=float(r.outcome_s))
         return answer
+
+    async def _ask_for_recovery(self, service: str, argument: str) -> Answer:
+        if service == "set_mode":
+            return await self._ask("set_mode", set_mode_request(argument))
+        return await self._ask("loco", loco_request(argument, 0))
 
     def _tell_recovery(self, event: dict[str, Any]) -> None:
         self._spawn(self._to_every_page({"type": "recover", **event}))

@@ -1,11 +1,18 @@
-"""A fallen robot up again as one sequence of verified steps, started by the operator (g1ctl recover and the
-console's Recover button run this one sequence).
+"""A robot on the floor or folded in a squat up again, as one sequence of verified steps started by the operator
+(g1ctl recover and the console's Recover button run this one sequence).
 
-damp -> lie_to_stand -> balance_stand, each through ~/loco_command, which answers success only once the robot
-shows the step's outcome; the first step that fails ends the sequence with what the robot showed. An e-stop
-preempts whichever step is waiting (the node answers it "preempted by e-stop"), and nothing after it is sent.
-A damped robot takes a moment to come to rest on the floor, so lie_to_stand is asked again while the node
-refuses it only because the robot is not lying yet.
+high_level -> damp -> get_up -> balance_stand. The vendor's flows (Unitree's remote-control guide, as quoted and
+verified on a G1 in 4paradigm/phanthymotus-driver PR #215): a robot lying on the floor is damped, then gets up with
+lie-to-stand (702); one folded in a squat is damped, then gets up with squat-to-stand (706). Damped, lying flat and
+folded show the same fsm, so the get-up is chosen by the posture the node reads from the joints and the pelvis
+(core/posture.py, published in ~/mode), once the damped robot has settled.
+
+Each step goes through the node's own services, which answer success only once the robot shows the step's outcome;
+the first step that fails ends the sequence with what the robot showed. An e-stop preempts whichever step is waiting
+(the node answers it "preempted by e-stop"), and nothing after it is sent. A node just started (UNINITIALIZED: the
+robot powered on folded or lying) or in IDLE is asked for HIGH_LEVEL first. Refused before anything is sent: a node
+in FAULT (clear_fault first), EMERGENCY or LOW_LEVEL; a robot standing already, or hanging (a gantry's robot is
+stood up with stand_up, not from the floor).
 """
 
 from __future__ import annotations
@@ -13,21 +20,35 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Final, Protocol
 
-from g1_mode_manager.core.posture_guards import NOT_LYING
+HIGH_LEVEL: Final = "high_level"
+DAMP: Final = "damp"
+GET_UP: Final = "get_up"
+BALANCE_STAND: Final = "balance_stand"
+STEPS: Final = (HIGH_LEVEL, DAMP, GET_UP, BALANCE_STAND)
+#: The get-up of each posture a damped robot settles in.
+GET_UPS: Final = {"lying_back": "lie_to_stand", "lying_front": "lie_to_stand", "squatting": "squat_to_stand",
+                  "sitting": "squat_to_stand"}
+#: How long a damped robot may take to settle (come to lie on the floor, or sink into its squat), s.
+SETTLE_WAIT_S = 5.0
+#: Settled: the same posture read this long without a break (a robot falling passes through a squat's knees), s.
+SETTLED_FOR_S = 0.5
+POLL_S = 0.1
 
-STEPS = ("damp", "lie_to_stand", "balance_stand")
-#: How long a damped robot may take to lie on the floor before lie_to_stand is given up, s.
-LYING_WAIT_S = 5.0
-RETRY_S = 0.25
 
-
-class LocoAnswer(Protocol):
+class Answer(Protocol):
     success: bool
-    code: int
     message: str
-    outcome_s: float
+
+
+class RecoveryRobot(Protocol):
+    """The node as the sequence sees it: its latest ~/mode (mode name and posture, None before the first) and two
+    of its services."""
+
+    def mode(self) -> tuple[str, str] | None: ...
+    def set_mode(self, mode: str) -> Answer: ...
+    def loco(self, verb: str) -> Answer: ...
 
 
 @dataclass(frozen=True)
@@ -38,22 +59,79 @@ class StepResult:
     took_s: float
 
 
-def recover(loco: Callable[[str], LocoAnswer], *, clock: Callable[[], float] = time.monotonic,
-            sleep: Callable[[float], None] = time.sleep, lying_wait_s: float = LYING_WAIT_S,
+def refusal(mode: str, posture: str) -> str | None:
+    """Why the sequence must not start from ``mode`` with the robot in ``posture``, or None."""
+    if mode == "FAULT":
+        return "the node is in FAULT: clear_fault first (it leaves IDLE), then recover"
+    if mode == "EMERGENCY":
+        return "the node is in EMERGENCY, which is never left: restart it, then recover"
+    if mode not in ("UNINITIALIZED", "IDLE", "HIGH_LEVEL"):
+        return f"the node is in {mode}: recovery starts from UNINITIALIZED, IDLE or HIGH_LEVEL"
+    if posture == "standing":
+        return "the robot stands already: nothing to recover (nothing sent)"
+    if posture == "hanging":
+        return ("the robot hangs (straight legs, limp, off the floor: a gantry?): recovery gets a robot up from the "
+                "floor or a squat; on the gantry use stand_up")
+    return None
+
+
+def recover(robot: RecoveryRobot, *, clock: Callable[[], float] = time.monotonic,
+            sleep: Callable[[float], None] = time.sleep, settle_wait_s: float = SETTLE_WAIT_S,
             on_step: Callable[[StepResult], None] | None = None) -> list[StepResult]:
     """Run the steps in order; the list ends with the first failed step (or holds all of them, succeeded).
     ``on_step`` is told each step's result as soon as it is known."""
     results: list[StepResult] = []
-    for step in STEPS:
-        started = clock()
-        answer = loco(step)
-        while (step == "lie_to_stand" and not answer.success and NOT_LYING in answer.message
-               and clock() - started < lying_wait_s):
-            sleep(RETRY_S)
-            answer = loco(step)
-        results.append(StepResult(step, answer.success, answer.message, clock() - started))
+
+    def done(step: str, started: float, success: bool, message: str) -> bool:
+        results.append(StepResult(step, success, message, clock() - started))
         if on_step is not None:
             on_step(results[-1])
-        if not answer.success:
-            break
+        return success
+
+    started = clock()
+    seen = robot.mode()
+    if seen is None:
+        done(HIGH_LEVEL, started, False, "no ~/mode from the node yet: is it running?")
+        return results
+    mode, posture = seen
+    if (why := refusal(mode, posture)) is not None:
+        done(HIGH_LEVEL, started, False, why)
+        return results
+    if mode == "HIGH_LEVEL":
+        done(HIGH_LEVEL, started, True, "in HIGH_LEVEL already")
+    elif not done(HIGH_LEVEL, started, *_answered(robot.set_mode("HIGH_LEVEL"))):
+        return results
+    started = clock()
+    if not done(DAMP, started, *_answered(robot.loco(DAMP))):
+        return results
+    started = clock()
+    posture = _settled(robot, clock, sleep, started + settle_wait_s)
+    verb = GET_UPS.get(posture)
+    if verb is None:
+        done(GET_UP, started, False, f"damped, the robot neither lies nor is folded in a squat after "
+                                     f"{settle_wait_s:.0f} s (posture {posture}): no get-up fits, nothing sent")
+        return results
+    success, message = _answered(robot.loco(verb))
+    if not done(GET_UP, started, success, f"{verb} ({posture}): {message}"):
+        return results
+    done(BALANCE_STAND, clock(), *_answered(robot.loco(BALANCE_STAND)))
     return results
+
+
+def _answered(answer: Answer) -> tuple[bool, str]:
+    return bool(answer.success), str(answer.message)
+
+
+def _settled(robot: RecoveryRobot, clock: Callable[[], float], sleep: Callable[[float], None], deadline: float) -> str:
+    """The posture a damped robot settles in: the first one a get-up fits, read without a break for SETTLED_FOR_S;
+    else the last one seen at the deadline."""
+    since, last = clock(), ""
+    while True:
+        seen = robot.mode()
+        posture = seen[1] if seen is not None else "unknown"
+        now = clock()
+        if posture != last:
+            since, last = now, posture
+        if (posture in GET_UPS and now - since >= SETTLED_FOR_S) or now >= deadline:
+            return posture
+        sleep(POLL_S)

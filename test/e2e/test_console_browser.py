@@ -463,16 +463,17 @@ def test_recover_gets_a_robot_lying_damped_up_step_by_step_and_a_second_click_is
     _page_shows(d, "mode-name", lambda text: text == "HIGH_LEVEL")
     _lying_damped(r)
     t_click = _click(d, "#recover")
-    _page_shows(d, "recover-steps", lambda text: "lie_to_stand: sent" in text, 10.0)
+    _page_shows(d, "recover-steps", lambda text: "get_up: sent" in text, 10.0)
     _click(d, "#recover")  # again, while it runs: refused, not queued
     refused = _page_shows(d, "recover-answer", lambda text: "REFUSED" in text, 5.0)
-    assert "already running" in refused and "lie_to_stand" in refused, refused
+    assert "already running" in refused and "get_up" in refused, refused
     end = _page_shows(d, "recover-answer", lambda text: "the robot stands" in text or "failed at" in text, 30.0)
     shown = _text(d, "recover-steps").splitlines()
     print(f"the page: {end}\n  " + "\n  ".join(shown))
     assert "the robot stands" in end, end
-    assert [line.split(":")[0] for line in shown] == ["damp", "lie_to_stand", "balance_stand"]
+    assert [line.split(":")[0] for line in shown] == ["high_level", "damp", "get_up", "balance_stand"]
     assert all(": done after " in line for line in shown), shown
+    assert "lie_to_stand (lying_back)" in shown[2], shown
     assert _recovery_calls(r.stack.record, t_click) == RECOVERY_CALLS, "the robot got other calls than one recovery's"
     events = r.stack.record.events(t_click)
     sent_702 = next(e["t"] for e in requests(events, api_ids.LOCO_SET_FSM_ID) if fsm_of(e) == FsmId.LIE_TO_STAND)
@@ -508,8 +509,8 @@ def test_a_wrong_token_is_refused_and_the_e_stop_preempts_a_running_recovery_and
     answer = _page_shows(d, "estop-answer", lambda text: "success=" in text, 20.0)
     assert "success=true" in answer and "damped" in answer, answer
     end = _page_shows(d, "recover-answer", lambda text: "failed at" in text, 10.0)
-    assert "failed at lie_to_stand" in end and "preempted by e-stop" in end, end
-    assert "FAILED" in _text(d, "recover-steps").splitlines()[1]
+    assert "failed at get_up" in end and "preempted by e-stop" in end, end
+    assert "FAILED" in _text(d, "recover-steps").splitlines()[2]
     assert not requests(r.stack.record.events(t_recover), api_ids.LOCO_SET_BALANCE_MODE), "a step after the e-stop"
     assert any(is_damp(e) for e in requests(r.stack.record.events(t_estop))), "no Damp after the e-stop"
     assert any(damped(s) for s in states(r.stack.record.events(t_estop))), "the robot was never damped with 'ai'"

@@ -1,7 +1,9 @@
 """Up again after a fall, judged on the sim's record: a damped robot on the floor is not stood up by
 stand_up (refused by the node, nothing sent), lie_to_stand raises it and is answered once the robot stands
-at 702; a fall after the get-up is a fall (FAULT); an e-stop during the get-up damps it; and the whole story,
-a walking robot pushed over -> FAULT -> clear_fault -> HIGH_LEVEL -> g1ctl recover -> start -> walks again."""
+at 702 (asked again, "already standing", nothing sent); a fall after the get-up is a fall (FAULT); an e-stop
+during the get-up damps it; and the whole story,
+a walking robot pushed over -> FAULT -> clear_fault -> g1ctl recover (one command, from IDLE) -> start -> walks
+again, with the vendor's get-up on the request topic: damp, then lie-to-stand."""
 
 from __future__ import annotations
 
@@ -12,7 +14,6 @@ import time
 import pytest
 from g1_mode_manager_msgs.msg import Mode as ModeMsg
 
-from e2e.user_ctrl_session import WALKS_M
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 from support.mode_manager import wait_until
@@ -20,6 +21,9 @@ from support.processes import python_module
 from support.sim_record import fsm_of, is_damp, requests, states
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
+
+#: How far the robot must walk after getting up: the walk the vendor's flows are for, not a step.
+WALKS_M = 1.0
 
 #: Pushes a robot in lock stand over (docs/sim.md: 60 N x 0.2 s forward already does).
 TIP_OVER = {"push": {"force": 150, "direction": [1, 0], "duration": 0.3}}
@@ -71,8 +75,9 @@ def test_a_lying_robot_gets_up_only_through_lie_to_stand_and_falls_count_again_o
     assert stack.sim.get()["body"]["pelvis_z"] > 0.7
     assert stack.modes()[-1].mode == ModeMsg.HIGH_LEVEL, "the get-up from the floor tripped a body check"
 
-    again = stack.loco("lie_to_stand")  # standing now: refused, nothing sent
-    assert not again.success and "damp first" in again.message, again.message
+    again = stack.loco("lie_to_stand")  # standing now: its outcome holds already, nothing sent
+    assert again.success and again.code == -1, again.message
+    assert again.message.startswith("lie_to_stand: already standing"), again.message
 
     stack.set_faults(TIP_OVER)  # standing at 702: a fall is a fall
     assert wait_until(lambda: stack.modes()[-1].mode == ModeMsg.FAULT, 10.0), \
@@ -126,17 +131,18 @@ def test_a_walking_robot_pushed_over_is_walking_again_after_clear_fault_and_reco
 
     assert wait_until(lambda: stack.clear_fault().success, 15.0, period_s=0.5), "clear_fault never succeeded"
     step("clear_fault: IDLE")
-    assert stack.set_mode("high_level").success
-    step("HIGH_LEVEL")
-    refused = stack.loco("stand_up")
-    assert not refused.success and "lie_to_stand" in refused.message, refused.message
+    t_recover = time.monotonic()
 
+    # one command from IDLE: HIGH_LEVEL, damp, the get-up the posture calls for, balance stand
     recover = subprocess.run(python_module("g1_mode_manager.cli.main", "recover"), capture_output=True, text=True,
                              timeout=90)
     assert recover.returncode == 0, recover.stdout + recover.stderr
     assert recover.stdout.strip().endswith("recover: the robot stands"), recover.stdout
     step("g1ctl recover")
     print(recover.stdout)
+    assert _set_fsm_requests(stack, t_recover) == [FsmId.DAMP, FsmId.LIE_TO_STAND]
+    assert [e["api"] for e in requests(stack.record.events(t_recover), api_ids.LOCO_SET_BALANCE_MODE)] == [
+        api_ids.LOCO_SET_BALANCE_MODE]
 
     assert stack.loco("start").success
     walked = stack.walk_forward(0.5, WALKS_M)
