@@ -4,12 +4,14 @@ also runs, after each step, whatever else reads the robot's remote (``on_step``)
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from g1_mode_manager.core.body.checks import BY_NAME, Reaction
 from g1_mode_manager.core.body.monitor import BodyMonitor, CheckStatus
+from g1_mode_manager.core.body.readings import BodyReadings
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
@@ -33,11 +35,16 @@ class BodySupervision:
                                enabled=s.body_checks_enabled)
         #: what else reads the remote at the watch's rate, after its step (set by whoever builds it: the policy's keys)
         self.on_step: Callable[[], None] = lambda: None
+        #: each step's readings, the checks' states (core/body/monitor.py) and when the step began (before it acted
+        #: on them), e.g. for the flight recorder
+        self.on_reading: Callable[[BodyReadings, tuple[str, ...], float], None] = lambda *_: None
         self._worker = PeriodicWorker("body_watch", s.body_check_rate_hz, self._step, on_error,
                                       period_s=self.watch.period_s)
 
     def _step(self, _dt_s: float) -> None:
+        began = time.monotonic()
         self.watch.step()
+        self.on_reading(self.watch.readings, self.monitor.states(), began)
         self.on_step()
 
     def start(self) -> None:

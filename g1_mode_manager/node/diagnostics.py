@@ -1,4 +1,4 @@
-"""/diagnostics for the mode manager: link health, mode, and command counters."""
+"""/diagnostics for the mode manager: link health, mode, command counters, walking, driver, policy, recorder."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.relay.drive_sources import Driving
+from g1_mode_manager.relay.flight_recorder import RecorderReport
 from g1_mode_manager.relay.link_health import LinkReport
 from g1_mode_manager.relay.policy_runner import PolicyRunner
 from g1_mode_manager.relay.walk_judge import WalkReport
@@ -127,4 +128,19 @@ def policy_status(runner: PolicyRunner, hardware_id: str) -> DiagnosticStatus:
                  _kv("inference_p99_ms", f"{stats.p99(stats.inference_s) * 1e3:.2f}"),
                  _kv("tick_p99_ms", f"{stats.p99(stats.tick_s) * 1e3:.2f}"), _kv("overruns", stats.overruns),
                  _kv("last_fault", runner.last_fault)]
+    return st
+
+
+def recorder_status(report: RecorderReport, hardware_id: str) -> DiagnosticStatus:
+    """The flight recorder: its last incident file, or WARN while incidents cannot be written (the robot is not
+    affected: the node runs on, unrecorded)."""
+    st = DiagnosticStatus(name="g1_mode_manager: recorder", hardware_id=hardware_id)
+    if report.error:
+        st.level, st.message = DiagnosticStatus.WARN, f"incidents cannot be written: {report.error}"
+    else:
+        st.level = DiagnosticStatus.OK
+        st.message = (f"last incident: {report.last_file} ({report.last_cause})" if report.last_file
+                      else "recording; no incident written yet")
+    st.values = [_kv("folder", report.folder), _kv("last_file", report.last_file), _kv("last_cause", report.last_cause),
+                 _kv("pending", report.pending), _kv("written", report.written), _kv("error", report.error)]
     return st

@@ -36,17 +36,22 @@ ESTOP_THREADS = 4
 
 EstopShot = Callable[[], list[str]]
 EstopCall = Callable[..., Outcome]
+#: (step: request or answer, the service or topic it came by, detail): e.g. the flight recorder's estop_step.
+EstopSteps = Callable[[str, str, str], None]
 
 
 class EstopEndpoint:
     """Serves `<main node>/estop` (std_srvs/Trigger) and listens to `/estop` (std_msgs/Bool, true = stop).
 
     ``shot()`` sends the first packet and returns its notes; ``estop(wait=..., fired=notes)`` does the rest.
+    ``steps`` hears of each request after its first packet left, and of each answer.
     """
 
-    def __init__(self, main: Node, shot: EstopShot, estop: EstopCall) -> None:
+    def __init__(self, main: Node, shot: EstopShot, estop: EstopCall,
+                 steps: EstopSteps = lambda _step, _via, _detail: None) -> None:
         self._shot = shot
         self._estop = estop
+        self._steps = steps
         self._log = main.get_logger()
         self.service_name = f"{main.get_fully_qualified_name()}/estop"
         self._node = rclpy.create_node(f"{main.get_name()}_estop", namespace=main.get_namespace(),
@@ -67,6 +72,7 @@ class EstopEndpoint:
 
     def _on_trigger(self, _request: Trigger.Request, respond: Respond) -> None:
         notes = self._shot()  # the DampNoReply first, in the thread that took the request
+        self._steps("request", self.service_name, "; ".join(notes))
         self._pool.submit(self._finish_trigger, notes, respond)
 
     def _finish_trigger(self, notes: list[str], respond: Respond) -> None:
@@ -78,10 +84,12 @@ class EstopEndpoint:
             return
         self._report(self.service_name, outcome)
         respond(Trigger.Response(success=outcome.success, message=outcome.message))
+        self._steps("answer", self.service_name, f"success={outcome.success}: {outcome.message}")
 
     def _on_topic(self, msg: Bool) -> None:
         if msg.data:
             notes = self._shot()
+            self._steps("request", "/estop", "; ".join(notes))
             self._pool.submit(self._finish_topic, notes)
 
     def _finish_topic(self, notes: list[str]) -> None:
@@ -92,6 +100,7 @@ class EstopEndpoint:
             self._error(exc)
             return
         self._log.warn(f"E-STOP requested via /estop topic: {outcome.message}")
+        self._steps("answer", "/estop", outcome.message)
 
     def _error(self, exc: BaseException) -> None:
         _log.error("e-stop endpoint: %s", exc, exc_info=exc)

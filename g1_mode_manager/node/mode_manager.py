@@ -30,6 +30,7 @@ class ModeManagerNode(Node):
         self.settings = s = declare_settings(self)
         p, e = wire(self, s, port_factory(s))
         self.parts, self.endpoints, self.machine = p, e, p.machine
+        p.recorder.start()  # first: it keeps what the others do from their start on
         for worker in (p.cmd_vel, p.arm_worker, p.lowcmd_worker, p.policy_worker):
             worker.start()
         e.estop.start()
@@ -47,7 +48,8 @@ class ModeManagerNode(Node):
 
     def shutdown(self) -> None:
         """Hand the robot back safely (arms ramped out, StopMove), stop the streams, workers, services and
-        e-stop endpoint, turn the head LED off, close the robot port. Call before destroy_node()."""
+        e-stop endpoint, turn the head LED off, close the robot port, write an incident still waiting. Call before
+        destroy_node()."""
         p, e = self.parts, self.endpoints
         e.streams.shutdown()
         e.state.stop()
@@ -66,3 +68,4 @@ class ModeManagerNode(Node):
             p.head_led_worker.stop()
             p.head_led.turn_off()
         p.port.close()
+        p.recorder.stop()  # last: a stop's incident still waiting is written now, with the shutdown in it

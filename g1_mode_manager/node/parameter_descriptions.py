@@ -154,6 +154,16 @@ DESCRIPTIONS: dict[str, str] = {
     "keys of the other or of remote_estop_keys, nor be part of them.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
+    "recorder_dir": "Folder of the flight recorder's incident files (MCAP); '' = $XDG_STATE_HOME/g1_mode_manager/"
+    "incidents (~/.local/state/g1_mode_manager/incidents without XDG_STATE_HOME). Made if missing.",
+    "recorder_window_s": "The flight recorder keeps this much of the node's past; an incident holds it before its "
+    "cause, s.",
+    "recorder_after_s": "An EMERGENCY or FAULT incident also holds this long after its entry (written then), s.",
+    "recorder_max_files": "Incident files kept in recorder_dir; the oldest go first.",
+    "recorder_max_total_mb": "Incident files kept in recorder_dir together at most this large (the newest always "
+    "stays); the oldest go first, MB.",
+    "recorder_frame_rate_hz": "Joint frames (rt/lowcmd, rt/user_lowcmd, rt/arm_sdk) the flight recorder keeps per "
+    "topic and second, Hz.",
 }
 
 #: Float ranges other than the default (1e-3, 1e6).
@@ -174,12 +184,17 @@ RANGES: dict[str, tuple[float, float]] = {
     "policy_engage_max_error_rad": (0.0, 3.0),
     "policy_state_timeout_s": (0.004, 1.0),
     "policy_overrun_s": (1e-6, 1.0),
+    "recorder_window_s": (1.0, 600.0),  # memory grows with it (docs/recorder.md)
+    "recorder_after_s": (0.0, 60.0),
+    "recorder_max_total_mb": (1.0, 1e6),
+    "recorder_frame_rate_hz": (0.1, 500.0),
 }
 
 
 #: Integer ranges other than the default (0, 10).
 INT_RANGES: dict[str, tuple[int, int]] = {
     "policy_max_overruns": (1, 100),  # 0 would stop every policy at its first tick
+    "recorder_max_files": (1, 100000),
 }
 
 

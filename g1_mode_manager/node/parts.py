@@ -25,6 +25,7 @@ from g1_mode_manager.node.supervisor import RobotSupervisor
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.autonomy_conditions import AutonomyConditions
 from g1_mode_manager.relay.cmd_vel import AutonomyInput, CmdVelRelay
+from g1_mode_manager.relay.flight_recorder import FlightRecorder
 from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
@@ -59,6 +60,7 @@ class Parts:
     body: BodySupervision
     head_led: HeadLed | None  # with its worker, or neither (head_led_enabled false)
     head_led_worker: PeriodicWorker | None
+    recorder: FlightRecorder  # the node's own past, on every robot call (``port`` records) and the parts' hooks
 
     def wake_relay_workers(self, *_change: object) -> None:
         """A mode change may give a sleeping relay worker something to do (LOW_LEVEL damping, exit damping)."""
@@ -67,8 +69,8 @@ class Parts:
         self.policy_worker.wake()
 
 
-def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
-                on_change: Callable[[MachineStatus], None]) -> Parts:
+def build_parts(settings: Settings, port: RobotPort, log: NodeLog, on_change: Callable[[MachineStatus], None],
+                recorder: FlightRecorder) -> Parts:
     """Build the parts (nothing started yet); ``on_change`` is the machine's change listener."""
     s = settings
     events, on_error = log.events, log.worker_error
@@ -124,7 +126,7 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog,
         loco=loco, lowstate_demand=lowstate_demand,
         supervisor=PeriodicWorker("supervisor", s.supervise_rate_hz,
                                   RobotSupervisor(port, machine, lowstate_demand).step, on_error),
-        body=body, head_led=head_led, head_led_worker=head_led_worker,
+        body=body, head_led=head_led, head_led_worker=head_led_worker, recorder=recorder,
     )
     machine.add_leave_listener(parts.wake_relay_workers)  # after the relays': exit damping is due now
     policy.wake = parts.policy_worker.wake

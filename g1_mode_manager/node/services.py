@@ -1,5 +1,6 @@
-"""The node's services: ~/set_mode, ~/loco_command, ~/clear_fault, and who drives in HIGH_LEVEL:
-~/hand_over_to_autonomy and ~/take_over (the e-stop has a side node of its own).
+"""The node's services: ~/set_mode, ~/loco_command, ~/clear_fault, who drives in HIGH_LEVEL:
+~/hand_over_to_autonomy and ~/take_over, and the flight recorder's ~/snapshot (the e-stop has a side node of its
+own). Each answer is also kept by the flight recorder.
 
 set_mode may block for seconds (SelectMode on a robot), and a loco command holds a thread while it waits for
 the robot to show its outcome: they are served on a side node with a thread pool of its own, so the command
@@ -39,7 +40,8 @@ class Services:
                                          (LocoCommand, "loco_command", self._on_loco_command),
                                          (Trigger, "clear_fault", self._on_clear_fault),
                                          (Trigger, "hand_over_to_autonomy", self._on_hand_over),
-                                         (Trigger, "take_over", self._on_take_over)):
+                                         (Trigger, "take_over", self._on_take_over),
+                                         (Trigger, "snapshot", self._on_snapshot)):
             self._side.node.create_service(srv_type, self._side.name_under_main(name), callback, callback_group=group)
         self.policy = PolicyEndpoints(main, self._side, group, parts.policy, default_policy, parts.log.worker_error)
 
@@ -63,12 +65,14 @@ class Services:
         except ValueError as exc:
             self._parts.log.events.count("set_mode_invalid")
             self._log.warn(f"set_mode refused: {exc}")
-            return self._fill_set_mode(response, False, str(exc))
+            return self._fill_set_mode(request, response, False, str(exc))
         self._parts.lowstate_demand.update(target)  # LOW_LEVEL and IDLE judge the link by rt/lowstate: receive it now
         outcome = self._parts.machine.request(target)
-        return self._fill_set_mode(response, outcome.success, outcome.message)
+        return self._fill_set_mode(request, response, outcome.success, outcome.message)
 
-    def _fill_set_mode(self, response: SetMode.Response, success: bool, message: str) -> SetMode.Response:
+    def _fill_set_mode(self, request: SetMode.Request, response: SetMode.Response, success: bool,
+                       message: str) -> SetMode.Response:
+        self._parts.recorder.service_answer("set_mode", request.mode_name or str(request.mode), success, message)
         response.success = success
         response.message = message
         response.mode = int(self._parts.machine.mode)
@@ -84,6 +88,8 @@ class Services:
             self._log.warn(f"loco_command {request.command!r}: {result.message}")
         response.success, response.message, response.code = result.success, result.message, result.code
         response.outcome_s = result.outcome_s
+        self._parts.recorder.service_answer("loco_command", f"{request.command} {request.value}", result.success,
+                                            f"code {result.code}: {result.message}")
         return response
 
     def _on_clear_fault(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
@@ -91,6 +97,7 @@ class Services:
         monitor = self._parts.body.monitor
         outcome = self._parts.machine.clear_fault(lambda: monitor.clearable(time.monotonic()), monitor.clear)
         response.success, response.message = outcome.success, outcome.message
+        self._parts.recorder.service_answer("clear_fault", "", outcome.success, outcome.message)
         return response
 
     def _on_hand_over(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
@@ -98,9 +105,19 @@ class Services:
         response.success, response.message = self._parts.cmd_vel.sources.hand_over()
         if not response.success:
             self._log.warn(f"hand_over_to_autonomy refused: {response.message}")
+        self._parts.recorder.service_answer("hand_over_to_autonomy", "", response.success, response.message)
         return response
 
     def _on_take_over(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
         """The teleop drives (the autonomy's Moves stop; it needs a new hand-over)."""
         response.success, response.message = self._parts.cmd_vel.sources.take_over()
+        self._parts.recorder.service_answer("take_over", "", response.success, response.message)
+        return response
+
+    def _on_snapshot(self, _request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """The flight recorder's window up to now, written as an incident file; the message is its path (or why
+        none was written)."""
+        response.success, response.message = self._parts.recorder.snapshot()
+        if not response.success:
+            self._log.error(f"snapshot: {response.message}")
         return response

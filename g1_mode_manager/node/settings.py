@@ -19,12 +19,14 @@ from rclpy.node import Node
 from g1_mode_manager.core.body.checks import BY_NAME as BODY_CHECKS
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.recorder.incidents import default_folder
 from g1_mode_manager.core.user_ctrl import LowLevelPath, SilenceReaction, UserCtrlConfig
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
 from g1_mode_manager.node.parameter_descriptions import descriptor
 from g1_mode_manager.node.renamed_parameters import read_old_names
 from g1_mode_manager.protocol.remote import KEY_NAMES, key_mask
+from g1_mode_manager.relay.flight_recorder import RecorderConfig
 from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyLimits
 
 #: The models set-up extracts from holosoma-inference's pinned wheel (scripts/fetch_assets.py), under the prefix.
@@ -139,6 +141,13 @@ class Settings:
     # on R1+X and stands the robot on L2+Up
     policy_engage_keys: str = "R1+X"
     policy_disengage_keys: str = "L2+Up"
+    # --- the flight recorder (relay/flight_recorder.py, docs/recorder.md) ---
+    recorder_dir: str = ""
+    recorder_window_s: float = 30.0
+    recorder_after_s: float = 3.0
+    recorder_max_files: int = 50
+    recorder_max_total_mb: float = 500.0
+    recorder_frame_rate_hz: float = 10.0
 
     def estop_timing(self) -> EstopTiming:
         return EstopTiming(call_s=self.estop_call_timeout_s, select_s=self.estop_select_timeout_s,
@@ -163,6 +172,15 @@ class Settings:
     def policy_models(self) -> Path:
         """Where the built-in policies' models are: ``policy_dir``, or the ones set-up extracted into the prefix."""
         return Path(self.policy_dir).expanduser() if self.policy_dir else Path(sys.prefix) / POLICY_MODELS
+
+    def recorder_config(self, node: str) -> RecorderConfig:
+        """The flight recorder's settings; ``node``: the node's full name, for the files' metadata."""
+        folder = Path(self.recorder_dir).expanduser() if self.recorder_dir else default_folder()
+        return RecorderConfig(folder, window_s=self.recorder_window_s, after_s=self.recorder_after_s,
+                              max_files=self.recorder_max_files,
+                              max_bytes=int(self.recorder_max_total_mb * 1024 * 1024),
+                              frame_rate_hz=self.recorder_frame_rate_hz,
+                              body_rate_hz=max(self.body_check_rate_hz, self.body_check_slow_rate_hz), node=node)
 
     def velocity_limits(self) -> VelocityLimits:
         return VelocityLimits(self.max_vx, self.max_vy, self.max_wz, self.max_ax, self.max_ay, self.max_awz)

@@ -20,7 +20,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.node.diagnostics import build_diagnostics, drive_status, policy_status, walk_status
+from g1_mode_manager.node.diagnostics import build_diagnostics, drive_status, policy_status, recorder_status, walk_status
 from g1_mode_manager.node.odometry import OdometryPublisher
 from g1_mode_manager.node.parts import Parts
 from g1_mode_manager.node.settings import Settings
@@ -92,7 +92,7 @@ class StatePublishers:
                 return
             link_ok = self._parts.link.link_ok(status.mode)
             driving = self._parts.cmd_vel.sources.driving(status.mode)
-            warnings = [*self._parts.body.monitor.warnings(), *self._walk_warning()]
+            warnings = [*self._parts.body.monitor.warnings(), *self._walk_warning(), *self._parts.recorder.warnings()]
             posture = self._parts.body.watch.posture.posture
             # what counts as a change: a figure inside a text (an age, a measured speed) does not
             content = (status, link_ok, driving.driver, _shape(driving.autonomy_suspended), tuple(map(_shape, warnings)),
@@ -143,6 +143,7 @@ class StatePublishers:
         array.status.append(walk_status(p.walk.report(time.monotonic()), name))
         array.status.append(drive_status(p.cmd_vel.sources.driving(status.mode), name))
         array.status.append(policy_status(p.policy, name))
+        array.status.append(recorder_status(p.recorder.report(), name))
         self._diag_pub.publish(array)
 
     def _mirror_sport_state(self) -> None:

@@ -1,4 +1,5 @@
-"""The node wired: its robot-side parts (parts.py) and its ROS side, what it publishes, serves and takes.
+"""The node wired: its robot-side parts (parts.py), the flight recorder's hooks in them, and its ROS side, what it
+publishes, serves and takes.
 
 The mode machine tells of a change through ``on_change``, which it is handed before the parts that listen
 exist: a :class:`ChangeListeners` to which each listener is added once built, before any thread that could
@@ -16,11 +17,13 @@ from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.node.command_streams import CommandStreams
 from g1_mode_manager.node.estop import EstopEndpoint
-from g1_mode_manager.node.node_log import NodeLog
+from g1_mode_manager.node.node_log import NodeLog, log_to
 from g1_mode_manager.node.parts import Parts, build_parts
 from g1_mode_manager.node.services import Services
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.node.state_publishers import StatePublishers
+from g1_mode_manager.relay.flight_recorder import FlightRecorder
+from g1_mode_manager.relay.recording_port import recording_port
 
 PortFactory = Callable[[Settings], RobotPort]
 
@@ -60,11 +63,26 @@ class Endpoints:
 def wire(node: Node, settings: Settings, port: RobotPort) -> tuple[Parts, Endpoints]:
     """Build everything ``node`` is made of; nothing is started."""
     changes = ChangeListeners()
-    parts = build_parts(settings, port, NodeLog(node.get_logger()), changes)
+    logger = node.get_logger()
+    recorder = FlightRecorder(settings.recorder_config(node.get_fully_qualified_name()), log=log_to(logger))
+    port = recording_port(port, recorder.add, frame_period_s=recorder.frame_period_s)
+    parts = build_parts(settings, port, NodeLog(logger, recorder), changes, recorder)
     state = StatePublishers(node, settings, parts)
     changes.add(parts.wake_relay_workers)
+    _tap(parts, changes)
     changes.add(state.publish_mode)
     parts.cmd_vel.sources.on_driver_change = state.publish_mode  # a takeover is on ~/mode at once
     services = Services(node, parts, settings.policy)
     return parts, Endpoints(state=state, services=services, streams=CommandStreams(node, settings, parts),
-                            estop=EstopEndpoint(node, parts.machine.estop_shot, parts.machine.estop))
+                            estop=EstopEndpoint(node, parts.machine.estop_shot, parts.machine.estop,
+                                                recorder.estop_step))
+
+
+def _tap(parts: Parts, changes: ChangeListeners) -> None:
+    """The flight recorder's hooks in the parts (the robot port and the log record by themselves); among the
+    machine's change listeners after the relay workers' wake, which may have damping to send."""
+    recorder = parts.recorder
+    changes.add(recorder.on_status)
+    parts.body.on_reading = recorder.body_step
+    parts.cmd_vel.sources.on_input = recorder.drive_input
+    parts.cmd_vel.on_move = recorder.move_sent

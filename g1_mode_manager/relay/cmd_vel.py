@@ -93,6 +93,8 @@ class CmdVelRelay:
         self._move_duration_s = check_move_duration(move_duration_s)
         self._on_error = on_error
         self._on_acknowledged = on_acknowledged  # (the Move, when it was sent): e.g. a walk judge
+        #: called with each Move written and who drove it (after the forward gate), e.g. by the flight recorder
+        self.on_move: Callable[[Driver, Velocity], None] = lambda _driver, _v: None
         self._clock = clock
         self._stopped = threading.Event()
         self._settled = threading.Condition()  # the sender notifies after every step; _stops under it
@@ -248,6 +250,8 @@ class CmdVelRelay:
                 reply = self._write_move(v)  # only the write under the gate: an e-stop never waits for a reply
                 self._move_in_flight = reply is not None
         self._after_stop = decision.mode in (Mode.EMERGENCY, Mode.FAULT)
+        if reply is not None and v is not None:
+            self.on_move(source.driver, v)
         if not forward:
             self.sources.forget_all()
             if not decision.allowed and untaken:

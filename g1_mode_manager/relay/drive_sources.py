@@ -55,6 +55,8 @@ class DriveSources:
         self._changes_picked = 0
         #: called (in the thread that changed it) after each change of driver, e.g. to publish ~/mode at once
         self.on_driver_change: Callable[[], None] = lambda: None
+        #: called with each command as it came (driver, vx, vy, wz) and whether it counts, e.g. by the flight recorder
+        self.on_input: Callable[[Driver, float, float, float, bool], None] = lambda *_: None
 
     # --- commands ------------------------------------------------------------------------------
     def offer(self, source: VelocitySource, vx: float, vy: float, wz: float) -> Sanitized:
@@ -74,6 +76,7 @@ class DriveSources:
             if offer.took_over and self.autonomy is not None:
                 self.autonomy.forget()
             look = offer.taken and source.take(result.velocity)
+        self.on_input(source.driver, vx, vy, wz, offer.taken)
         if not offer.taken:
             self._events.count(f"{key}_ignored")
             if source is self.autonomy:

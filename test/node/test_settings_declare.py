@@ -43,6 +43,8 @@ def test_defaults_without_overrides() -> None:
     ("move_duration_s", 5.0, InvalidParameterValueException),
     ("dds_domain", 300, InvalidParameterValueException),
     ("cmd_vel_rate_hz", 10, InvalidParameterTypeException),
+    ("recorder_window_s", 0.0, InvalidParameterValueException),
+    ("recorder_max_files", 0, InvalidParameterValueException),
 ])
 def test_a_bad_value_fails_at_start_naming_the_parameter(name: str, value: object, error: type) -> None:
     with node_with(**{name: value}) as node, pytest.raises(error, match=name):
@@ -121,3 +123,13 @@ def test_the_policys_remote_keys_default_to_rl_labs_and_take_any_case_or_none() 
     assert (settings.policy_engage_keys, settings.policy_disengage_keys) == ("R1+X", "L2+Up")
     with node_with(policy_engage_keys="r1 + x", policy_disengage_keys="", remote_estop_keys="") as node:
         assert declare_settings(node).policy_engage_keys == "r1 + x"
+
+
+def test_the_recorders_folder_is_its_parameter_or_the_users_state_folder(monkeypatch) -> None:
+    monkeypatch.setenv("XDG_STATE_HOME", "/state")
+    config = Settings().recorder_config("/g1_mode_manager")
+    assert str(config.folder) == "/state/g1_mode_manager/incidents" and config.node == "/g1_mode_manager"
+    assert (config.window_s, config.after_s, config.max_files, config.body_rate_hz) == (30.0, 3.0, 50, 100.0)
+    assert config.max_bytes == 500 * 1024 * 1024
+    monkeypatch.setenv("HOME", "/home/op")
+    assert str(Settings(recorder_dir="~/incidents").recorder_config("").folder) == "/home/op/incidents"

@@ -191,3 +191,23 @@ def test_the_conditions_name_stale_odometry_a_hold_and_a_robot_that_does_not_wal
         clock.advance(0.1)
         walk.acknowledged(0.5, 0.0, 0.0, clock(), port.odom)
     assert (conditions() or "").startswith(WARNING)
+
+
+def test_each_input_is_told_with_whether_it_counts_and_each_move_with_who_drove_it(events, clock) -> None:
+    port = FakeRobotPort()
+    relay = _relay(port, Gate(Mode.HIGH_LEVEL), events, clock)
+    inputs: list[tuple] = []
+    sent: list[tuple] = []
+    relay.sources.on_input = lambda *heard: inputs.append(heard)
+    relay.on_move = lambda driver, v: sent.append((driver, v.vx))
+    _autonomy(relay, 0.2)  # not handed the robot: it does not count
+    relay.submit(0.3, 0.0, 0.0)
+    _run(relay, clock, 3)
+    relay.sources.hand_over()
+    _autonomy(relay, 0.2)
+    _run(relay, clock, 3)
+    assert inputs == [(Driver.AUTONOMY, 0.2, 0.0, 0.0, False), (Driver.TELEOP, 0.3, 0.0, 0.0, True),
+                      (Driver.AUTONOMY, 0.2, 0.0, 0.0, True)]
+    assert {driver for driver, _vx in sent} == {Driver.TELEOP, Driver.AUTONOMY}
+    assert [driver for driver, _vx in sent] == sorted((d for d, _ in sent), key=lambda d: d is Driver.AUTONOMY)
+    assert len(sent) == len([m for m in _moves(port) if any(m[:3])])  # every Move was told, no StopMove

@@ -118,6 +118,11 @@ class BodyMonitor:
             return tuple(self.text(c, t.value) for c in self._checks  # type: ignore[arg-type]
                          if (t := self._tracks[c.name]).state == "warn")
 
+    def states(self) -> tuple[str, ...]:
+        """Each check's state (as in statuses), in the order of the checks: no text made, for every step."""
+        with self._lock:
+            return tuple(t.state for t in self._tracks.values())
+
     def statuses(self) -> tuple[CheckStatus, ...]:
         with self._lock:
             out = []

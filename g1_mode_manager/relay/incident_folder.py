@@ -1,0 +1,59 @@
+"""The incident folder: whether it can be written, one incident written into it whole, the oldest removed.
+
+Synchronous, and only ever called from the flight recorder's own thread. A file goes out under a ``.part`` name
+and is renamed once synced, so a listing (``g1ctl incidents``) never shows half a file; after each write the
+oldest incidents go until at most ``max_files`` remain, together at most ``max_bytes``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+from g1_mode_manager.core.recorder.incidents import PARTIAL, SUFFIX, Cause, file_name, list_incidents, to_remove
+from g1_mode_manager.core.recorder.ring import Entry
+from g1_mode_manager.relay.incident_writer import write_incident
+
+
+class IncidentFolder:
+    def __init__(self, folder: Path, *, max_files: int, max_bytes: int) -> None:
+        self.folder = folder
+        self._max_files = max_files
+        self._max_bytes = max_bytes
+
+    def check(self) -> str:
+        """'' if incidents can be written here (the folder made if missing; a file left half written by a process
+        that died is removed), else why not."""
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            return f"cannot create {self.folder}: {exc.strerror or exc}"
+        if not os.access(self.folder, os.W_OK | os.X_OK):
+            return f"{self.folder} is not writable"
+        for stale in self.folder.glob(f"incident_*{SUFFIX}{PARTIAL}"):
+            stale.unlink(missing_ok=True)
+        return ""
+
+    def write(self, began: float, cause: Cause, entries: Sequence[Entry], metadata: Mapping[str, str], *,
+              to_unix: Callable[[float], float]) -> tuple[Path, int]:
+        """Write one incident (``began``: UNIX time, for its name); returns its path and message count. Raises
+        OSError when the folder cannot take it (nothing is left behind then)."""
+        self.folder.mkdir(parents=True, exist_ok=True)
+        path = self.folder / file_name(began, cause)
+        while path.exists():  # two incidents in one millisecond
+            began += 0.001
+            path = self.folder / file_name(began, cause)
+        part = path.with_name(path.name + PARTIAL)
+        try:
+            count = write_incident(part, entries, metadata, to_unix=to_unix)
+            os.replace(part, path)
+        except BaseException:
+            part.unlink(missing_ok=True)
+            raise
+        self._rotate()
+        return path, count
+
+    def _rotate(self) -> None:
+        for old in to_remove(list_incidents(self.folder), max_files=self._max_files, max_bytes=self._max_bytes):
+            old.path.unlink(missing_ok=True)
