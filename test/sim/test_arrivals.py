@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+from typing import Any
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -32,6 +33,10 @@ def test_malformed_samples_have_no_key() -> None:
     assert request_id(b"\x01\x01\x00\x00" + b"\x00" * 8) is None  # not plain CDR
 
 
+#: SDK entities of this file's tests.
+_KEPT: list[Any] = []
+
+
 def _request(rid: int) -> Request_:
     header = RequestHeader_(RequestIdentity_(rid, 7101), RequestLease_(0), RequestPolicy_(0, False))
     return Request_(header, "{}", [])
@@ -44,6 +49,7 @@ def test_requests_are_stamped_on_delivery_and_popped_in_order(sdk_channels: int)
     sub.Init(lambda msg: handled.append(msg.header.identity.id), 0)
     stamps = Arrivals(channel_datareader(subscriber_channel(sub)), request_id, window=4)
     pub = ChannelPublisher(topic, Request_)
+    _KEPT.extend((sub, pub))  # never freed while the process lives (harness/sim_bridge.py: pitfall)
     pub.Init()
     assert wait_until(lambda: channel_matched_readers(publisher_channel(pub)) >= 2, 10.0)
     sent = []

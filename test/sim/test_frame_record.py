@@ -7,6 +7,7 @@ same topic: a plain Cyclone reader in this process with a history deep enough to
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import signal
@@ -34,6 +35,8 @@ from support.sim_record import IncompleteRecordError, SimRecord
 
 pytestmark = pytest.mark.sim
 
+#: SDK entities of this file's tests, never freed while the process lives.
+_KEPT: list[Any] = []
 RATE_HZ = 500.0
 STREAM_S = 10.0
 #: The sim is frozen (SIGSTOP) this long mid-stream: a loaded machine's starved sim, made certain.
@@ -47,6 +50,15 @@ def _frame(kp: float) -> LowCmd_:
     msg.motor_cmd[0].mode, msg.motor_cmd[0].kp = 1, kp
     msg.crc = lowcmd_crc(msg)
     return msg
+
+
+@functools.cache
+def _user_lowcmd_publisher() -> ChannelPublisher:
+    """One for the process: an SDK writer garbage-collected while later readers of its topic come and go has its
+    matched-status listener called after it was freed (harness/sim_bridge.py: pitfall)."""
+    pub = ChannelPublisher(topics.USER_LOWCMD, LowCmd_)
+    pub.Init()
+    return pub
 
 
 class DeepReader:
@@ -70,8 +82,7 @@ def test_a_500_hz_stream_is_on_the_record_frame_for_frame_as_an_independent_read
     record = SimRecord(record_path)
     frames = int(RATE_HZ * STREAM_S)
     independent = DeepReader(topics.USER_LOWCMD, depth=2 * frames)
-    pub = ChannelPublisher(topics.USER_LOWCMD, LowCmd_)
-    pub.Init()
+    pub = _user_lowcmd_publisher()
 
     def recorded(since: float) -> list[dict[str, Any]]:
         return [e for e in record.events(since) if e["k"] == "frame" and e["topic"] == "user_lowcmd"]
@@ -121,7 +132,8 @@ def test_a_reader_that_falls_too_far_behind_says_what_it_dropped_and_goes_on_in_
         got.append((float(msg.motor_cmd[0].kp), t, n))
 
     reader = FrameReader(topic, handle, on_drop=lambda first, count: drops.append((first, count)), max_backlog=5)
-    pub = ChannelPublisher(topic, LowCmd_)
+    pub = ChannelPublisher(topic, LowCmd_)  # kept for the process (harness/sim_bridge.py: pitfall)
+    _KEPT.append(pub)
     pub.Init()
     try:
         assert wait_until(lambda: channel_matched_readers(publisher_channel(pub)) >= 1, 10.0)
