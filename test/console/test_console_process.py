@@ -206,6 +206,8 @@ def test_recover_is_told_to_every_page_and_fails_at_damp_when_the_node_serves_no
     try:
         steps = page.wait_for(lambda m: m["type"] == "hello")["recover_steps"]
         assert steps == ["high_level", "damp", "get_up", "balance_stand"]
+        # the sequence starts from the console's latest ~/mode: the stand-in's HIGH_LEVEL, not an earlier test's IDLE
+        page.wait_for(lambda m: m["type"] == "state" and m.get("mode") and m["mode"]["name"] == "HIGH_LEVEL", 5.0)
         page.send({"type": "recover"})
         end = other.wait_for(lambda m: m["type"] == "recover" and m["event"] == "done", 10.0)
         you = page.last("hello")["you"]
