@@ -2,7 +2,8 @@
 
 Runs the sim in this process (no DDS) through the flows a posture verb meets: standing, walking, 706 down and
 its squat, squat (2) and sit (3), damping from standing (the fall onto the back) and from the squat, a push
-then damping (onto the front), the gantry damped and in zero torque, and 702's get-up. Prints a markdown table
+then damping (onto the front), the gantry damped and in zero torque, 702's get-up, and the two postures the sim
+can boot in (folded in the squat, until the damped fold tips forward, and lying on its back). Prints a markdown table
 (docs/posture.md) or, with ``--fixture``, the poses as Python for test/fakes/posture_poses.py. It loads MuJoCo
 and steps physics for about a minute: run it under the sim CPU lock.
 
@@ -120,8 +121,19 @@ def _flows() -> list[tuple[str, Callable[[], list[Measured]]]]:
         taken.append(_take(sim, "hanging", "in the gantry, damp, then zero torque, 3 s"))
         return taken
 
+    def booted() -> list[Measured]:
+        sim = SimG1(start_posture="squat")
+        _run(sim, 4.0)
+        taken = [_take(sim, "squatting_booted", "booted folded in the squat (damped), 4 s")]
+        _run(sim, 8.0)
+        taken.append(_take(sim, "lying_front_tipped", "booted folded, 12 s (the damped fold tips forward at 10.8 s)"))
+        sim = SimG1(start_posture="lying")
+        _run(sim, 2.0)
+        taken.append(_take(sim, "lying_back_booted", "booted lying on its back (damped), 2 s"))
+        return taken
+
     return [("standing", standing), ("706", squat_706), ("2 and 3", squat_and_sit), ("lying", lying),
-            ("gantry", gantry)]
+            ("gantry", gantry), ("booted", booted)]
 
 
 def main(argv: list[str] | None = None) -> int:

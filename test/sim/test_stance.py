@@ -1,5 +1,5 @@
 """Lock stand holds like the robot's (no sag, no stepping), stand height bends the knees, and the stock
-Unitree arm_sdk program does not topple the robot standing, walking or after Squat2StandUp.
+Unitree arm_sdk program does not topple the robot standing, walking, after Squat2StandUp or after Lie2StandUp.
 Runs MuJoCo: run under the sim CPU lock."""
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, JOINT_INDEX
 from g1_sim.firmware import SimG1
 from g1_sim.firmware.loco_api import HIGH_STAND
+from support.stock_client import ARM7_PY_DT_S, arm7_py_command
 
 pytestmark = pytest.mark.sim
 
@@ -118,6 +119,45 @@ def test_arms_overhead_in_lock_stand_and_the_stance_settles_after_arm_sdk_lets_g
         xs.append(float(sim.base_pose().position[0]))
     assert not sim.fallen and sim.base_pose().position[2] > 0.7
     assert max(xs) - min(xs) < 0.02  # settled, not rocking
+
+
+def python_arm7_example(sim: SimG1) -> float:
+    """Unitree's Python arm7 example's frames (support.stock_client), each computed from the pose measured for
+    it, kp 60, kd 1.5, 50 Hz, until it is done. Returns the lowest pelvis height seen (m)."""
+    zeros, kp, kd = np.zeros(len(ARMS)), np.full(len(ARMS), 60.0), np.full(len(ARMS), 1.5)
+    q, weight, elapsed = sim.lowstate().q[ARMS].copy(), 0.0, 0.0
+    lowest = float(sim.base_pose().position[2])
+    while True:
+        elapsed += ARM7_PY_DT_S
+        targets, new_weight = arm7_py_command(elapsed, sim.lowstate().q[ARMS].tolist())
+        if (targets, new_weight) == (None, None):
+            return lowest
+        q = q if targets is None else np.array(targets)
+        weight = weight if new_weight is None else new_weight
+        sim.apply_arm_sdk(q, zeros, zeros, kp, kd, weight)
+        run(sim, ARM7_PY_DT_S)
+        lowest = min(lowest, float(sim.base_pose().position[2]))
+
+
+@pytest.mark.parametrize("get_up", ["stand_up", "lie_to_stand", "recover"])
+def test_python_arm7_example_after_each_get_up(get_up: str) -> None:
+    """The stance each get-up leaves carries Unitree's Python arm7 example as the boot stand does: StandUp (4) of a
+    damped robot still on its feet, Lie2StandUp (702) of a damped robot on its back, and 702 then BalanceStand
+    (SetBalanceMode 0: the end of the node's recover)."""
+    sim = SimG1()
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    run(sim, 0.3 if get_up == "stand_up" else 2.5)
+    assert sim.set_fsm_id(FsmId.STAND_UP if get_up == "stand_up" else FsmId.LIE_TO_STAND) == OK
+    run(sim, 0.1)
+    while sim.get_fsm_mode() == (OK, FsmMode.DYNAMIC):
+        run(sim, 0.1)
+    if get_up == "recover":
+        assert sim.set_balance_mode(0) == OK
+    falls, frames = sim.counters["falls"], sim.counters["arm_sdk_frames"]
+    assert python_arm7_example(sim) > 0.7
+    assert sim.counters["arm_sdk_frames"] - frames == 1050  # every frame taken
+    run(sim, 3.0)
+    assert sim.base_pose().position[2] > 0.7 and sim.counters["falls"] == falls
 
 
 def test_stand_height_bends_the_knees_within_range() -> None:

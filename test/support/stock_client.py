@@ -12,7 +12,8 @@ robot lying; StandUp, watched for ``--quiet-s=S`` (2 s unless given), then Lie2S
 (StandUp2Squat until static), ``start`` (Start only), ``walk`` (Start, Move 0.5 m/s for 2.5 s, StopMove), ``arm``
 (rt/arm_sdk: weight 0 -> 1 -> 0 with the left shoulder raised), ``arm7`` (rt/arm_sdk the way Unitree's C++
 ``g1_arm7_sdk_dds_example.cpp`` writes it: no CRC, the weight 1 at once, the left shoulder pitch ramped at
-0.5 rad/s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then Damp). Each prints one JSON line
+0.5 rad/s), ``arm7_py`` (rt/arm_sdk as Unitree's Python ``g1_arm7_sdk_dds_example.py`` writes it, its poses and
+phases whole: about 21 s), ``release`` (ReleaseMode), ``damp`` (SelectMode("ai") then Damp). Each prints one JSON line
 ``{"step", "t", ...codes}``; the caller judges what the robot did from the robot's side. Exit 0 once every
 step ran, 1 if the server never answered.
 """
@@ -199,6 +200,80 @@ def arm7(publisher: Any, lowstate: Any, target: float = -0.9) -> None:
          target=target)
 
 
+#: The Python arm7 example's arms-out pose, by motor: both shoulders rolled out a quarter turn, elbows bent a
+#: quarter turn; every other waist and arm joint it drives goes to 0.
+ARM7_PY_POSE = {16: math.pi / 2, 18: math.pi / 2, 23: -math.pi / 2, 25: math.pi / 2}
+ARM7_PY_DT_S, ARM7_PY_STAGE_S = 0.02, 3.0
+
+
+def arm7_py_command(elapsed_s: float, measured: list[float], stage_s: float = ARM7_PY_STAGE_S,
+                    ) -> tuple[list[float] | None, float | None]:
+    """What unitree_sdk2_python's ``example/g1/high_level/g1_arm7_sdk_dds_example.py`` (37116c5) writes in the frame
+    at ``elapsed_s`` (its own clock: the frame count x 20 ms, summed), for ``measured`` = the 17 waist and arm
+    positions in motor order (12..28) as its lowstate callback last had them: (targets for motors 12..28, weight);
+    None where that frame leaves the value as the last one set it (it reuses one LowCmd_); ``None, None`` once it
+    is done. ``stage_s`` is its ``duration_``. Each target blends the goal with the position measured for that
+    frame, so a joint that lags is never pulled harder:
+
+    1. to ``stage_s``: the weight 1 from the first frame; targets shrink towards the zero pose (measured x (1 - r)).
+    2. to 3 ``stage_s``: towards the arms-out pose (:data:`ARM7_PY_POSE`), r x pose + (1 - r) x measured.
+    3. to 6 ``stage_s``: back towards the zero pose, as in 1.
+    4. to 7 ``stage_s``: the weight ramped from 1 down, the targets left as they were. Its clock is a sum of 0.02 s
+       steps, so the last frame of the ramp carries a weight of about 1e-13, never 0."""
+    first = ARM_JOINTS[0]
+
+    def blend(r: float, goal: dict[int, float]) -> list[float]:
+        r = min(max(r, 0.0), 1.0)
+        return [r * goal.get(i, 0.0) + (1.0 - r) * measured[i - first] for i in ARM_JOINTS]
+
+    if elapsed_s < stage_s:
+        return blend(elapsed_s / stage_s, {}), 1.0
+    if elapsed_s < 3 * stage_s:
+        return blend((elapsed_s - stage_s) / (2 * stage_s), ARM7_PY_POSE), None
+    if elapsed_s < 6 * stage_s:
+        return blend((elapsed_s - 3 * stage_s) / (3 * stage_s), {}), None
+    if elapsed_s < 7 * stage_s:
+        return None, 1.0 - min((elapsed_s - 6 * stage_s) / stage_s, 1.0)
+    return None, None
+
+
+def arm7_py(publisher: Any, lowstate: Any) -> None:
+    """Unitree's Python arm7 example's frames (:func:`arm7_py_command`) as it sends them: one LowCmd_ reused for every
+    frame, CRC computed, ``mode_machine`` and the motors' ``mode`` left 0, kp 60, kd 1.5, dq and tau 0 on motors
+    12..28, a frame every 20 ms on a fixed timer from the first rt/lowstate on. Once done it writes its last frame on
+    until its main thread, which looks once a second, ends the process: here until the next whole second."""
+    from unitree_sdk2py.idl.default import unitree_hg_msg_dds__LowCmd_
+    from unitree_sdk2py.utils.crc import CRC
+
+    state = lowstate.Read(2.0)
+    if state is None:
+        emit("arm7_py", error="no rt/lowstate")
+        return
+    msg, crc = unitree_hg_msg_dds__LowCmd_(), CRC()
+    for i in ARM_JOINTS:
+        m = msg.motor_cmd[i]
+        m.dq, m.tau, m.kp, m.kd = 0.0, 0.0, 60.0, 1.5
+    elapsed, frames, done = 0.0, 0, False
+    started = next_at = time.monotonic()
+    while not done or time.monotonic() - started < math.ceil(7 * ARM7_PY_STAGE_S):
+        elapsed += ARM7_PY_DT_S
+        targets, weight = arm7_py_command(elapsed, [state.motor_state[i].q for i in ARM_JOINTS])
+        done = done or (targets, weight) == (None, None)
+        if targets is not None:
+            for i, q in zip(ARM_JOINTS, targets, strict=True):
+                msg.motor_cmd[i].q = q
+        if weight is not None:
+            msg.motor_cmd[WEIGHT_INDEX].q = weight
+        msg.crc = crc.Crc(msg)
+        publisher.Write(msg)
+        frames += 1
+        next_at += ARM7_PY_DT_S
+        time.sleep(max(0.0, next_at - time.monotonic()))
+        newest = lowstate.Read(0.1)  # the reader keeps only the last sample
+        state = state if newest is None else newest
+    emit("arm7_py", frames=frames, last_weight=msg.motor_cmd[WEIGHT_INDEX].q, crc=msg.crc)
+
+
 def main(argv: list[str]) -> int:
     type_fix = "--type-fix" in argv
     quiet_s = next((float(a.split("=", 1)[1]) for a in argv if a.startswith("--quiet-s=")), 2.0)
@@ -244,6 +319,8 @@ def main(argv: list[str]) -> int:
             arm(publisher, lowstate)
         elif step == "arm7":
             arm7(publisher, lowstate)
+        elif step == "arm7_py":
+            arm7_py(publisher, lowstate)
         elif step == "release":
             code, _ = switcher.ReleaseMode()
             emit("release", code=code, check=switcher.CheckMode()[1])
