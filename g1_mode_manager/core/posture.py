@@ -48,7 +48,8 @@ class PostureLimits:
     #: push stay under 0.07; the vendor's app template hands a robot back to damping past |pitch| 0.8.
     upright_tilt_rad: float = 0.5
     #: Lying: tilted past the fall check's angle (Unitree's terminations.hpp bad_orientation, 1.0 rad). Sim:
-    #: damped on its back or front 1.6-1.9; an upright squat 0.04, sitting 0.06, the folded squat 0.24-0.54.
+    #: damped on its back or front 1.33-1.86 (the fold tipped forward 1.33); an upright squat 0.04, sitting 0.06,
+    #: the folded squat 0.24-0.54.
     lying_tilt_rad: float = 1.0
     #: Straight legs: both knees below this. Sim: a limp robot hanging in the gantry in zero torque -0.09; one
     #: knee of a walk at 1 m/s goes down to 0.16, never both.
@@ -70,7 +71,7 @@ LIMITS: Final = PostureLimits()
 
 #: Where the pelvis may be for each posture, when a height estimate is given (outside: unknown). Sim: standing
 #: 0.74-0.79 (0.85 lifted in the gantry), squatting 0.58 upright and 0.19-0.23 folded, sitting 0.40, lying
-#: 0.06-0.09 (the sim firmware's lying rule: below 0.45), hanging 0.76-0.79.
+#: 0.06-0.20 (the fold tipped forward 0.20; the sim firmware's lying rule: below 0.45), hanging 0.76-0.79.
 HEIGHT_BANDS_M: Final[Mapping[Posture, tuple[float, float]]] = MappingProxyType({
     Posture.STANDING: (0.55, 1.0),
     Posture.HANGING: (0.55, 2.0),

@@ -27,6 +27,8 @@ def _read(pose: Pose, *, limp: bool | None = None, height: bool = False) -> Post
     ("standing", P.STANDING), ("walking", P.STANDING), ("standing_702", P.STANDING),
     ("squatting_706", P.SQUATTING), ("squatting_fsm2", P.SQUATTING), ("squatting_damped", P.SQUATTING),
     ("sitting", P.SITTING), ("lying_back", P.LYING_BACK), ("lying_front", P.LYING_FRONT), ("hanging", P.HANGING),
+    # the power-on postures, and the damped fold after it tipped forward onto its knees
+    ("squatting_booted", P.SQUATTING), ("lying_back_booted", P.LYING_BACK), ("lying_front_tipped", P.LYING_FRONT),
     # on the way, or limp and upright on bent legs (falling, or held up by a gantry): nothing the verbs may act on
     ("getting_up", P.UNKNOWN), ("falling_damped", P.UNKNOWN), ("gantry_damped", P.UNKNOWN),
     # between the fold and standing, 706's legs pass through the sit: read as it, while 706 still moves (fsm_mode 1,
