@@ -10,7 +10,7 @@ from pathlib import Path
 from g1_mode_manager.cli.client import ManagerClient, default_discovery_to_localhost
 from g1_mode_manager.cli.incidents import print_incidents
 from g1_mode_manager.core.loco_verbs import LOCO_VERBS
-from g1_mode_manager.core.recorder.incidents import default_folder
+from g1_mode_manager.core.recorder.incidents import folder_for
 
 POLICY_VERBS = ("load", "shadow", "engage", "disengage", "hold", "unload")
 
@@ -88,7 +88,7 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         return 0
     if args.cmd == "incidents":
         folder = client.parameter("recorder_dir")
-        return print_incidents(Path(folder).expanduser() if folder else default_folder())
+        return print_incidents(folder_for(folder or ""))
     if args.cmd == "set-mode":
         r = client.set_mode(args.name)
         print(f"success={r.success} mode={r.mode_name}: {r.message}")

@@ -4,7 +4,8 @@ Policy card's topics and services are policy_card.py's; their calls go through t
 
 Service calls never wait in a thread: each answer comes back to the web server's event loop. The mode
 manager's parameters that the page needs (the head LED looks, whether cmd_vel is stamped, its watchdog time)
-are read once through its get_parameters service, retried until the node answers.
+are read once through its get_parameters service, retried until the node answers; its incident folder
+(recorder_dir) then, in a request of its own.
 """
 
 from __future__ import annotations
@@ -39,6 +40,8 @@ Velocity = tuple[float, float, float]
 LED_PARAMS = {**{m.name: f"head_led_{m.name.lower()}" for m in Mode}, AUTONOMY_LOOK: "head_led_autonomy"}
 #: Parameters of the mode manager the console reads.
 NODE_PARAMS = ("cmd_vel_stamped", "cmd_vel_timeout_s", *LED_PARAMS.values())
+#: Read apart, once NODE_PARAMS are: a node that lacks one parameter of a request answers none of them.
+RECORDER_DIR = "recorder_dir"
 
 
 class ServiceUnavailableError(RuntimeError):
@@ -64,6 +67,7 @@ class RosBridge:
         self._cmd_vel: Any = None  # made once the node's parameters say Twist or TwistStamped
         self._stamped = False
         self.node_params: dict[str, Any] = {}
+        self.node_recorder_dir: str | None = None  # the mode manager's recorder_dir, once read
         self._last_mode_key: tuple | None = None
         self._latest_mode: tuple[str, str] | None = None
         node.create_subscription(ModeMsg, f"{manager}/mode", self._on_mode, MODE_QOS)
@@ -141,9 +145,16 @@ class RosBridge:
             msg_type = TwistStamped if self._stamped else Twist
             self._cmd_vel = self.node.create_publisher(msg_type, self.cmd_vel_topic, 10)
         self._params_timer.cancel()
+        self._params_client.call_async(GetParameters.Request(names=[RECORDER_DIR])).add_done_callback(
+            self._took_recorder_dir)
         self.node.get_logger().info(f"read the mode manager's parameters: cmd_vel on {self.cmd_vel_topic} as "
                                     f"{msg_type.__name__}, watchdog {params.get('cmd_vel_timeout_s')} s")
         self._on_change()
+
+    def _took_recorder_dir(self, future: Any) -> None:
+        result = future.result()
+        if result is not None and len(result.values) == 1 and result.values[0].type == ParameterType.PARAMETER_STRING:
+            self.node_recorder_dir = result.values[0].string_value
 
     # --- commands out --------------------------------------------------------------------------------
     def ready_to_drive(self) -> str | None:

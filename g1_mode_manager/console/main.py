@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from g1_mode_manager.help_flag import wants_help
@@ -123,8 +124,11 @@ async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: M
     """Serve until SIGINT or SIGTERM; the exit status (REFUSED if the address cannot be bound)."""
     from g1_mode_manager.console.bridge import RosBridge
     from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
+    from g1_mode_manager.console.incident_routes import IncidentRoutes
+    from g1_mode_manager.console.last_incident import LastIncident
     from g1_mode_manager.console.policy_view import PolicyView
     from g1_mode_manager.console.server import ConsoleServer
+    from g1_mode_manager.core.recorder.incidents import folder_for
 
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
@@ -138,8 +142,13 @@ async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: M
     def blocked(now: float) -> str | None:
         return bridge.ready_to_drive() or view.drive_block(now)
 
+    def incident_folder() -> Path:
+        """The console's recorder_dir, else the mode manager's (once read), else the default both share."""
+        return folder_for(settings.recorder_dir or bridge.node_recorder_dir or "")
+
     publisher = CmdVelPublisher(teleop, settings.publish_rate_hz, blocked, bridge.publish)
-    server = ConsoleServer(settings, access, rules, teleop, view, policy, bridge, publisher, blocked, hello)
+    server = ConsoleServer(settings, access, rules, teleop, view, policy, bridge, publisher, blocked, hello,
+                           IncidentRoutes(LastIncident(incident_folder)))
     server_ref.append(server)
     started = time.monotonic()
     try:

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 STATIC = Path(__file__).resolve().with_name("static")
-#: In the order they run: the plot, teleop and policy card helpers before the page's main script.
-SCRIPTS = ("plot.js", "teleop.js", "policy.js", "console.js")
+#: In the order they run: the plot, teleop, policy and incident card helpers before the page's main script.
+SCRIPTS = ("plot.js", "teleop.js", "policy.js", "incident.js", "console.js")
 STYLES = ("console.css",)
 
 
@@ -38,7 +38,7 @@ def build_page(static: Path = STATIC) -> Page:
         "default-src 'none'",
         f"script-src {' '.join(_hash(s) for s in scripts)}",
         f"style-src {' '.join(_hash(s) for s in styles)}",
-        "connect-src 'self'",  # the console's own WebSocket (same host and port)
+        "connect-src 'self'",  # the console's own WebSocket and its incident JSON (same host and port)
         "img-src 'self' data:",
         "frame-ancestors 'none'",  # no other page may frame the E-STOP and the drive pad
         "base-uri 'none'",

@@ -7,6 +7,7 @@ state (mode, health, who drives, a plot sample) goes to every page at state_rate
 The Recover button's sequence (recovery.py) asks its steps through the same service call as a loco button.
 Handing the robot to the autonomy and taking it back are service calls too; the dead-man is the teleop's alone.
 So are the Policy card's verbs (policy_card.py), whose status, targets and error plot go out with the state.
+The last incident and its file are served over plain HTTP (incident_routes.py), behind the same access rules.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from g1_mode_manager.console import messages as m
 from g1_mode_manager.console.access import Access
 from g1_mode_manager.console.bridge import RosBridge, ServiceUnavailableError, loco_request, set_mode_request, trigger_request
 from g1_mode_manager.console.cmd_vel_publisher import CmdVelPublisher
+from g1_mode_manager.console.incident_routes import IncidentRoutes
 from g1_mode_manager.console.page import build_page
 from g1_mode_manager.console.policy_card import ANSWER_TIMEOUT_S as POLICY_TIMEOUT_S
 from g1_mode_manager.console.policy_card import request as policy_request
@@ -73,7 +75,7 @@ class _PageSocket:
 class ConsoleServer:
     def __init__(self, settings: ConsoleSettings, access: Access, rules: m.MessageRules, teleop: Teleop,
                  view: RobotView, policy: PolicyView, bridge: RosBridge, publisher: CmdVelPublisher,
-                 blocked: Callable[[float], str | None], hello: dict[str, Any],
+                 blocked: Callable[[float], str | None], hello: dict[str, Any], incidents: IncidentRoutes,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self._s = settings
         self._access = access
@@ -85,6 +87,7 @@ class ConsoleServer:
         self._publisher = publisher
         self._blocked = blocked
         self._hello = hello
+        self._incidents = incidents
         self._clock = clock
         self._started = clock()
         self._page = build_page()
@@ -102,6 +105,7 @@ class ConsoleServer:
         app = web.Application(middlewares=[self._guard], client_max_size=4096)
         app.router.add_get("/", self._serve_page)
         app.router.add_get("/ws", self._serve_socket)
+        self._incidents.add_to(app)
         return app
 
     async def start(self) -> tuple[str, int]:

@@ -26,6 +26,8 @@ DESCRIPTIONS = {
     "max_clients": "WebSocket connections served at once; more are refused (503)",
     "max_message_bytes": "longest message acted on; longer ones are refused and counted",
     "max_messages_per_s": "steady rate of messages per page; a flood beyond it (and its burst) is refused and counted",
+    "recorder_dir": "the mode manager's incident folder, shown on the Last incident card; '' = the mode manager's own "
+                    "recorder_dir (read from it), else $XDG_STATE_HOME/g1_mode_manager/incidents",
 }
 
 
@@ -46,6 +48,7 @@ class ConsoleSettings:
     max_clients: int = 8
     max_message_bytes: int = MAX_MESSAGE_BYTES
     max_messages_per_s: float = 50.0
+    recorder_dir: str = ""
 
     def __post_init__(self) -> None:
         positive = ("heartbeat_deadline_s", "publish_rate_hz", "state_rate_hz", "max_clients", "max_message_bytes",

@@ -13,7 +13,6 @@ x, y 0.05^2 m^2, z 0.1^2 m^2, roll and pitch 0.02^2 rad^2, yaw 0.05^2 rad^2; twi
 
 from __future__ import annotations
 
-import math
 import threading
 from collections.abc import Callable
 
@@ -24,6 +23,7 @@ from rclpy.node import Node
 
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import OdomSample, RobotPort
+from g1_mode_manager.protocol.odom_fields import rotate_into_body
 from g1_mode_manager.protocol.topics import LF_ODOMMODESTATE
 
 try:  # tf2_msgs ships with every ROS install; from PyPI wheels only as scripts/build_msgs.sh builds it
@@ -43,17 +43,6 @@ def _diagonal(values: tuple[float, ...]) -> list[float]:
     for i, v in enumerate(values):
         out[7 * i] = v
     return out
-
-
-def rotate_into_body(q_wxyz: tuple[float, float, float, float], v: tuple[float, float, float]) -> tuple[float, ...]:
-    """``v`` (in the odometry frame) expressed in the body frame whose orientation is ``q_wxyz``."""
-    w, x, y, z = q_wxyz
-    n = math.sqrt(w * w + x * x + y * y + z * z) or 1.0
-    w, x, y, z = w / n, -x / n, -y / n, -z / n  # the inverse rotation
-    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
-    cx, cy, cz = y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0]
-    return (v[0] + 2 * (w * cx + y * cz - z * cy), v[1] + 2 * (w * cy + z * cx - x * cz),
-            v[2] + 2 * (w * cz + x * cy - y * cx))
 
 
 class OdometryPublisher:

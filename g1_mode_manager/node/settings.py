@@ -19,7 +19,7 @@ from rclpy.node import Node
 from g1_mode_manager.core.body.checks import BY_NAME as BODY_CHECKS
 from g1_mode_manager.core.estop_policy import EstopTiming
 from g1_mode_manager.core.modes import Mode
-from g1_mode_manager.core.recorder.incidents import default_folder
+from g1_mode_manager.core.recorder.incidents import folder_for
 from g1_mode_manager.core.user_ctrl import LowLevelPath, SilenceReaction, UserCtrlConfig
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
@@ -175,9 +175,8 @@ class Settings:
 
     def recorder_config(self, node: str) -> RecorderConfig:
         """The flight recorder's settings; ``node``: the node's full name, for the files' metadata."""
-        folder = Path(self.recorder_dir).expanduser() if self.recorder_dir else default_folder()
-        return RecorderConfig(folder, window_s=self.recorder_window_s, after_s=self.recorder_after_s,
-                              max_files=self.recorder_max_files,
+        return RecorderConfig(folder_for(self.recorder_dir), window_s=self.recorder_window_s,
+                              after_s=self.recorder_after_s, max_files=self.recorder_max_files,
                               max_bytes=int(self.recorder_max_total_mb * 1024 * 1024),
                               frame_rate_hz=self.recorder_frame_rate_hz,
                               body_rate_hz=max(self.body_check_rate_hz, self.body_check_slow_rate_hz), node=node)

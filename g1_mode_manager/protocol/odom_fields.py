@@ -9,11 +9,12 @@ through cyclonedds' per-field serialiser. Other encodings are deserialised by th
 
 from __future__ import annotations
 
+import math
 import struct
 from dataclasses import dataclass
 from typing import Final
 
-__all__ = ["OdomFields", "encode_odom", "unpack_odom"]
+__all__ = ["OdomFields", "encode_odom", "rotate_into_body", "unpack_odom"]
 
 # stamp (sec, nanosec), error_code, imu (quaternion w,x,y,z, gyroscope, accelerometer, rpy, temperature), mode,
 # progress, gait_type, foot_raise_height, position[3], body_height, velocity[3], yaw_speed, range_obstacle[4],
@@ -54,3 +55,14 @@ def unpack_odom(data: bytes) -> OdomFields | None:
     v = _BODY.unpack_from(data, 4)
     return OdomFields(stamp_s=v[0] + v[1] * 1e-9, quaternion=v[3:7], gyroscope=v[7:10], rpy=v[13:16],
                       position=v[21:24], body_height=v[24], velocity=v[25:28], yaw_speed=v[28])
+
+
+def rotate_into_body(q_wxyz: tuple[float, float, float, float], v: tuple[float, float, float]) -> tuple[float, ...]:
+    """``v`` (in the odometry frame) expressed in the body frame whose orientation is ``q_wxyz``."""
+    w, x, y, z = q_wxyz
+    n = math.sqrt(w * w + x * x + y * y + z * z) or 1.0
+    w, x, y, z = w / n, -x / n, -y / n, -z / n  # the inverse rotation
+    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
+    cx, cy, cz = y * v[2] - z * v[1], z * v[0] - x * v[2], x * v[1] - y * v[0]
+    return (v[0] + 2 * (w * cx + y * cz - z * cy), v[1] + 2 * (w * cy + z * cx - x * cz),
+            v[2] + 2 * (w * cz + x * cy - y * cx))

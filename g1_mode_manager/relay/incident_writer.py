@@ -2,8 +2,9 @@
 schemas embedded), which Foxglove and ros2 bag's MCAP tools open as a bag.
 
 Typed messages where a standard one fits (std_msgs/Float64 for each body reading, geometry_msgs/Twist for the
-drivers' commands and the Moves, this package's JointCommand for frames); std_msgs/String holding one JSON
-object where none does (the mode machine, robot calls, notes). Each message's log time is when the node saw the
+drivers' commands, the Moves and the robot's odometry, this package's JointCommand for frames); std_msgs/String
+holding one JSON object where none does (the mode machine, robot calls, notes), on the channels that
+core/recorder/channels.py names. Each message's log time is when the node saw the
 thing; a robot call's answer has its request's time as publish time. Runs on the recorder's thread, never on a
 hook's, and lets other threads have the GIL every YIELD_EVERY messages.
 """
@@ -22,6 +23,20 @@ from mcap.writer import CompressionType
 from mcap_ros2.writer import Writer
 
 from g1_mode_manager.core.body.checks import CHECKS
+from g1_mode_manager.core.recorder.channels import (
+    BODY,
+    BODY_READINGS,
+    DRIVE,
+    ESTOP,
+    FRAMES,
+    MOVES,
+    NOTES,
+    ODOMETRY,
+    ROBOT_CALLS,
+    SERVICES,
+    STATUS,
+    TRANSITIONS,
+)
 from g1_mode_manager.core.recorder.events import (
     FRAME_FIELDS,
     Attempt,
@@ -32,6 +47,7 @@ from g1_mode_manager.core.recorder.events import (
     FrameSent,
     MoveSent,
     Note,
+    OdometrySeen,
     Phase,
     RobotCall,
     ServiceAnswer,
@@ -40,24 +56,9 @@ from g1_mode_manager.core.recorder.events import (
 from g1_mode_manager.core.recorder.incidents import METADATA_NAME
 from g1_mode_manager.core.recorder.ring import Entry
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES
+from g1_mode_manager.protocol.odom_fields import rotate_into_body
 from g1_mode_manager.relay import ros2_schemas as schemas
 
-PREFIX: Final = "/recorder"
-STATUS: Final = f"{PREFIX}/status"
-TRANSITIONS: Final = f"{PREFIX}/transitions"
-NOTES: Final = f"{PREFIX}/notes"
-SERVICES: Final = f"{PREFIX}/services"
-ROBOT_CALLS: Final = f"{PREFIX}/robot_calls"
-ESTOP: Final = f"{PREFIX}/estop"
-BODY: Final = f"{PREFIX}/body"  # /<reading> (Float64) and /verdicts (String)
-DRIVE: Final = f"{PREFIX}/drive"  # /<source> (Twist) and /not_taken (String)
-MOVES: Final = f"{PREFIX}/moves"  # /<driver> (Twist)
-FRAMES: Final = f"{PREFIX}/frames"  # /<topic> (JointCommand), /arm_sdk/weight (Float64)
-
-#: BodyReadings field -> its channel under BODY.
-BODY_READINGS: Final = {"tilt_rad": "tilt_rad", "gyro_max": "gyro_max_rad_s", "joint_speed_max": "joint_speed_max_rad_s",
-                        "winding_max_c": "winding_max_c", "casing_max_c": "casing_max_c",
-                        "soc_pct": "battery_soc_pct", "state_age_s": "state_age_s"}
 #: Messages written between two looks for other threads (time.sleep(0) hands the GIL over).
 YIELD_EVERY: Final = 200
 _FRAME_NAMES: Final = {"lowcmd": JOINT_NAMES, "user_lowcmd": JOINT_NAMES, "arm_sdk": ARM_SDK_JOINT_NAMES}
@@ -139,6 +140,9 @@ class _Messages:
                 self._json(ESTOP, t, order, {"step": event.step, "via": event.via, "detail": event.detail})
             case FrameSent():
                 self._frame(t, order, event)
+            case OdometrySeen():  # as the node's odom publishes its twist: in the body frame (REP 105)
+                vx, vy, _vz = rotate_into_body(event.quaternion, event.velocity)
+                self._write(ODOMETRY, schemas.TWIST, _twist(vx, vy, event.yaw_speed), t, order)
 
     def _call(self, t: float, order: int, call: RobotCall) -> None:
         value: dict[str, object] = {"id": call.call_id, "verb": call.verb.name, "api": call.verb.api,

@@ -3,13 +3,16 @@
 A call is recorded as its request before it is written and as its answer (code, value, latency) when it returns,
 so a call still waiting when an incident is written shows as a request without an answer. DampNoReply, the
 e-stop's first packet, is recorded after it left, never in front of it. Frames are recorded at most once per
-``frame_period_s`` per topic, after they were written, packed into an array.
+``frame_period_s`` per topic, after they were written, packed into an array. Each odometry sample (the robot's
+estimate of its velocity) is recorded once, when a part of the node first reads it: the odom publisher at
+odom_rate_hz, the walk judge at each acknowledged Move, the autonomy's conditions.
 Everything else passes through unchanged.
 """
 
 from __future__ import annotations
 
 import itertools
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Final, TypeVar
@@ -24,7 +27,7 @@ from g1_mode_manager.core.port import (
     StateSample,
     VoicePort,
 )
-from g1_mode_manager.core.recorder.events import Event, FrameSent, Phase, RobotCall, Verb
+from g1_mode_manager.core.recorder.events import Event, FrameSent, OdometrySeen, Phase, RobotCall, Verb
 from g1_mode_manager.core.user_ctrl import UserCtrlPort
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import InternalCtrl
@@ -64,6 +67,8 @@ class RecordingPort:
         self._clock = clock
         self._ids = itertools.count(1)
         self._last_frame: dict[str, float] = {}  # topic -> when its last recorded frame was written
+        self._odom_lock = threading.Lock()  # several threads read the odometry: a sample is recorded once
+        self._odom_count = 0  # the last odometry sample recorded (OdomSample.count)
 
     # --- recording ---------------------------------------------------------------------------------
     def _call(self, verb: Verb, args: tuple[object, ...], call: Callable[[], R]) -> R:
@@ -191,7 +196,15 @@ class RecordingPort:
         return self.inner.battery_soc()
 
     def odometry(self) -> OdomSample | None:
-        return self.inner.odometry()
+        sample = self.inner.odometry()
+        if sample is not None and sample.count > self._odom_count:
+            with self._odom_lock:  # counts only grow: a sample read late by a slower reader is not kept again
+                new = sample.count > self._odom_count
+                self._odom_count = max(sample.count, self._odom_count)
+            if new:
+                f = sample.fields
+                self._add(OdometrySeen(f.velocity, f.yaw_speed, f.quaternion))
+        return sample
 
     def lowstate_restarts(self) -> int:
         return self.inner.lowstate_restarts()

@@ -23,6 +23,7 @@ from g1_mode_manager.core.recorder.events import (
     Kind,
     MoveSent,
     Note,
+    OdometrySeen,
     Phase,
     RobotCall,
     ServiceAnswer,
@@ -151,6 +152,8 @@ def _typical(kind: Kind, i: int) -> Event:
             return EstopStep("answer", "/g1_mode_manager/estop", f"success=True: e-stop: robot damped ({i})")
         case Kind.FRAME:
             return FrameSent.of("lowcmd", [MotorCommand(r(), r(), r(), r(), r()) for _ in range(29)])
+        case Kind.ODOMETRY:  # the tuples the odometry reader made for its sample
+            return OdometrySeen((r(), r(), r()), r(), (r(), r(), r(), r()))
 
 
 def test_a_full_ring_of_the_default_window_takes_at_most_the_stated_bytes() -> None:

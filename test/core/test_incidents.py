@@ -9,6 +9,7 @@ from g1_mode_manager.core.recorder.incidents import (
     IncidentFile,
     default_folder,
     file_name,
+    folder_for,
     list_incidents,
     parse_name,
     to_remove,
@@ -30,6 +31,13 @@ def test_a_name_says_when_the_incident_began_and_why() -> None:
 def test_the_default_folder_is_the_users_state_folder() -> None:
     assert default_folder({"XDG_STATE_HOME": "/s", "HOME": "/h"}) == Path("/s/g1_mode_manager/incidents")
     assert default_folder({"HOME": "/h"}) == Path("/h/.local/state/g1_mode_manager/incidents")
+
+
+def test_a_recorder_dir_names_its_folder_and_empty_names_the_default() -> None:
+    """The one rule the node (where it writes) and the console (where it reads) share."""
+    assert folder_for("", {"XDG_STATE_HOME": "/s"}) == Path("/s/g1_mode_manager/incidents")
+    assert folder_for("/data/incidents", {"XDG_STATE_HOME": "/s"}) == Path("/data/incidents")
+    assert folder_for("~/incidents") == Path.home() / "incidents"
 
 
 def test_the_listing_shows_complete_incidents_oldest_first(tmp_path: Path) -> None:

@@ -4,10 +4,12 @@ mode manager and the real sim, judged on the sim's record.
 One stack, one console and one browser for the file; the tests run in file order, each leaving the robot as the
 next expects (walking on W, then stopped, then driven by a planner handed the robot on the page and taken back,
 then standing under a policy engaged from the Policy card and handed back, then damped on the floor and got up by
-the Recover button, then e-stopped during a second recovery). The node runs with the policy tests' steady bounds
-(STEADY_POLICY), which change nothing outside LOW_LEVEL. Set G1_CONSOLE_SCREENSHOTS=<folder> to also save the page
-while driving, while a planner drives and in EMERGENCY, and the Policy card while the policy drives (the pictures:
-``console_driving.png``, ``console_autonomy.png``, ``console_emergency.png``, ``console_policy.png``).
+the Recover button, then e-stopped during a second recovery, whose incident file the Last incident card then shows).
+The node runs with the policy tests' steady bounds (STEADY_POLICY), which change nothing outside LOW_LEVEL, and writes
+its incidents into a folder of the test's, which the console is given too. Set G1_CONSOLE_SCREENSHOTS=<folder> to
+also save the page while driving, while a planner drives and in EMERGENCY, the Policy card while the policy drives
+and the Last incident card after the e-stop (the pictures: ``console_driving.png``, ``console_autonomy.png``,
+``console_emergency.png``, ``console_policy.png``, ``console_incident.png``).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import json
 import os
 import signal
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +35,7 @@ from e2e.user_ctrl_session import (
     no_user_frame_before_1000,
     wait_at_rest,
 )
+from g1_mode_manager.core.recorder.incidents import Cause, list_incidents
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, BalanceMode, FsmId, FsmMode, InternalCtrl
@@ -50,7 +53,7 @@ from support.holosoma import POLICY_KP_MAX, policy_frame
 from support.mode_manager import wait_until
 from support.planner import start_planner
 from support.sim_record import SimRecord, damped, fsm_of, is_damp, requests, states, velocity_of
-from support.timing import QUIET_WINDOW_S, RECORD_WAIT_S
+from support.timing import INCIDENT_AFTER_S, INCIDENT_WRITE_S, QUIET_WINDOW_S, RECORD_WAIT_S
 
 from .conftest import Stack
 
@@ -80,21 +83,25 @@ class Rig:
     twists: Twists
     token_file: Path
     shots: Path | None
+    incidents: Path  # the node's recorder_dir, given to the console too
 
 
 @pytest.fixture(scope="module")
 def rig(module_stack_factory, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Rig]:
-    # measured velocity and tilt for the plots; the policy's loop out of a loaded machine's way
-    stack = module_stack_factory(node_params=("odom_rate_hz:=20.0", *STEADY_POLICY))
+    # measured velocity and tilt for the plots; the policy's loop out of a loaded machine's way; the e-stop's incident
+    # in a folder of the test's, written soon after it
+    incidents = tmp_path_factory.mktemp("incidents")
+    stack = module_stack_factory(node_params=("odom_rate_hz:=20.0", *STEADY_POLICY, f"recorder_dir:={incidents}",
+                                              f"recorder_after_s:={INCIDENT_AFTER_S}"))
     twists = Twists()
     stack.ros.node.create_subscription(Twist, "/cmd_vel", twists, 100)  # what the console publishes, when
     token_file = tmp_path_factory.mktemp("console") / "token"
     token_file.write_text(TOKEN + "\n")
     shots = os.environ.get("G1_CONSOLE_SCREENSHOTS")
-    console = start_console()
+    console = start_console(f"recorder_dir:={incidents}")
     try:
         with chromium() as driver:
-            r = Rig(stack, console, driver, twists, token_file, Path(shots) if shots else None)
+            r = Rig(stack, console, driver, twists, token_file, Path(shots) if shots else None, incidents)
             yield r
             console = r.console
     finally:
@@ -267,7 +274,7 @@ def test_killing_the_console_while_driving_lets_the_watchdog_stop_the_robot(rig:
     _page_shows(d, "conn", lambda text: "DISCONNECTED" in text, 5.0)
     assert r.stack.node.alive()
     _keys(d, up="w")
-    r.console = start_console(f"token_file:={r.token_file}")  # the next test: a console with a token
+    r.console = start_console(f"token_file:={r.token_file}", f"recorder_dir:={r.incidents}")  # the next: with a token
 
 
 def _velocities(record: SimRecord, since: float) -> list[tuple[float, list[float]]]:
@@ -524,3 +531,87 @@ def test_a_wrong_token_is_refused_and_the_e_stop_preempts_a_running_recovery_and
     assert wait_until(lambda: last().name == "EMERGENCY" and last().damp_confirmed, 5.0), last()
     time.sleep(1.0 if r.shots else 0.0)
     _shot(r, "console_emergency.png")
+
+
+#: The Last incident card's plots, each with its lines' colours (incident.js), as the canvas has them: lines that lie
+#: on one another (a robot at rest: every velocity 0) show the last drawn, so a plot counts its colours together.
+INCIDENT_PLOTS = {"plot-incident-tilt": [(255, 138, 101)],
+                  "plot-incident-velocity": [(77, 163, 255), (60, 207, 110), (180, 140, 255), (242, 193, 78)]}
+#: More pixels of its lines' colours than the legend's swatches have (10 x 3 each): a line across the plot.
+DRAWN_PIXELS = 300
+#: The e-stop's steps the card lists, as the node records them (docs/recorder.md), in this order; the last two land
+#: in the file only if they came within its after-window (recorder_after_s: INCIDENT_AFTER_S).
+ESTOP_STEPS = ("DampNoReply sent", "e-stop request", "EMERGENCY entered", "Damp request", "Damp answer")
+LATER_STEPS = ("damp_confirmed", "e-stop answer")
+#: Pixels of one colour on a canvas.
+PIXELS = """const c = document.getElementById(arguments[0]);
+const px = c.getContext("2d").getImageData(0, 0, c.width, c.height).data;
+let n = 0;
+for (let i = 0; i < px.length; i += 4) {
+  if (px[i] === arguments[1] && px[i + 1] === arguments[2] && px[i + 2] === arguments[3]) n++;
+}
+return n;"""
+
+
+def test_the_incident_card_shows_the_e_stops_incident_and_its_download_is_the_file_on_disk(rig: Rig) -> None:
+    from selenium.webdriver.common.by import By
+
+    r, d = rig, rig.driver
+    emergencies = lambda: [f for f in list_incidents(r.incidents) if f.cause is Cause.EMERGENCY]  # noqa: E731
+    assert wait_until(lambda: bool(emergencies()), INCIDENT_AFTER_S + INCIDENT_WRITE_S), list(r.incidents.iterdir())
+    newest = list_incidents(r.incidents)[-1]
+    assert newest == emergencies()[-1], list_incidents(r.incidents)
+    # the page was opened before the file existed: the card took it up by itself
+    assert newest.path.stat().st_mtime * 1000 > d.execute_script("return performance.timeOrigin")
+    cause = _page_shows(d, "incident-cause", lambda text: text.startswith("EMERGENCY"), RECORD_WAIT_S)
+    assert cause == f"EMERGENCY from HIGH_LEVEL ({r.stack.ns}/g1_mode_manager/estop)", cause
+    assert _text(d, "incident-mode") == "EMERGENCY"
+    link = d.find_element(By.ID, "incident-download")
+    assert newest.path.name in link.text and link.get_attribute("download") is not None
+
+    # the plot has data: the series the page holds, and their lines drawn
+    series = d.execute_script("return incidentCard.incident.series")
+    print("incident series: " + ", ".join(f"{k} {len(p)} in {min((v for _t, v in p), default=None)}.."
+                                          f"{max((v for _t, v in p), default=None)}" for k, p in series.items()))
+    assert len(series["tilt"]) > 100 and series["meas_vx"], {k: len(v) for k, v in series.items()}
+    assert max(v for _t, v in series["tilt"]) > 0.3  # the robot got up from lying on its back in the window
+    modes = d.execute_script("return incidentCard.incident.modes")
+    assert modes[-1][1] == "EMERGENCY" and abs(modes[-1][0]) <= 0.002 and modes[-2][1] == "HIGH_LEVEL", modes
+    for canvas, colours in INCIDENT_PLOTS.items():
+        drawn = [d.execute_script(PIXELS, canvas, *colour) for colour in colours]
+        assert sum(drawn) > DRAWN_PIXELS, (canvas, drawn)
+
+    # the e-stop's steps, in order, each with its time from the stop
+    shown = [(li.get_attribute("data-step"), float(li.get_attribute("data-t")), li.text)
+             for li in d.find_elements(By.CSS_SELECTOR, "#incident-steps li")]
+    print("the card's e-stop steps:\n  " + "\n  ".join(text for *_, text in shown))
+    names = [name for name, _t, _text in shown]
+    assert [name for name in names if name in ESTOP_STEPS] == list(ESTOP_STEPS), names
+    at = {name: t for name, t, _text in reversed(shown)}  # each step's first time
+    assert abs(at["e-stop request"]) < 1.0 and abs(at["EMERGENCY entered"]) <= 0.002
+    later = [at[name] for name in LATER_STEPS if name in at]
+    # after the entry (its time and the file's began are both to the millisecond)
+    assert -0.002 <= at["Damp request"] <= at["Damp answer"] and all(t >= at["Damp answer"] for t in later), at
+    for name, t, text in shown:  # as the page shows it: "+0.012 s · Damp answer: code 0, 3 ms"
+        when, _, rest = text.partition(" s · ")
+        assert float(when) == pytest.approx(t, abs=1e-9) and rest.startswith(name), (name, t, text)
+    assert next(text for name, _t, text in shown if name == "Damp answer").split(": ", 1)[1].startswith("code 0")
+
+    # the download: the same bytes as the file on disk, as an attachment
+    status, headers, body = _download(link.get_attribute("href"))
+    assert status == 200 and body == newest.path.read_bytes()
+    assert headers["Content-Disposition"] == f'attachment; filename="{newest.path.name}"'
+    _shot(r, "console_incident.png", height=1500, card="incident-card")
+
+
+def _download(url: str) -> tuple[int, Mapping[str, str], bytes]:
+    """(status, headers (any case), body) of the link's URL (its token in it), fetched as a script would."""
+    import asyncio
+
+    import aiohttp
+
+    async def go() -> tuple[int, Mapping[str, str], bytes]:
+        async with aiohttp.ClientSession() as session, session.get(url) as response:
+            return response.status, response.headers.copy(), await response.read()
+
+    return asyncio.run(go())

@@ -4,6 +4,7 @@ messages): every kind of event as its message, in order, times kept, the schemas
 from __future__ import annotations
 
 import json
+import math
 import re
 import sys
 from pathlib import Path
@@ -25,6 +26,7 @@ from g1_mode_manager.core.recorder.events import (
     FrameSent,
     MoveSent,
     Note,
+    OdometrySeen,
     Phase,
     RobotCall,
     ServiceAnswer,
@@ -46,6 +48,8 @@ def _ring() -> FlightRing:
     ring.add(StatusChange(MachineStatus(Mode.HIGH_LEVEL, False, None, True, True, False, "", "", version=3)))
     ring.add(DriveInput("teleop", 0.3, 0.0, 0.1, True))
     ring.add(MoveSent("teleop", 0.3, 0.0, 0.1))
+    # the robot's estimate, the body turned 90 degrees left: its forward 0.3 m/s is along the odometry frame's y
+    ring.add(OdometrySeen((0.0, 0.3, 0.0), 0.1, (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))))
     ring.add(RobotCall(1, SET_VELOCITY, (0.3, 0.0, 0.1, 1.0), Phase.REQUEST))
     clock.advance(0.004)
     ring.add(RobotCall(1, SET_VELOCITY, (0.3, 0.0, 0.1, 1.0), Phase.ANSWER, 0, None, 0.004))
@@ -84,7 +88,7 @@ def test_every_event_reads_back_as_its_message_in_order(tmp_path: Path) -> None:
     assert len(got) == count
     topics = [topic for topic, *_ in got]
     assert topics == [
-        w.STATUS, f"{w.DRIVE}/teleop", f"{w.MOVES}/teleop", w.ROBOT_CALLS, w.ROBOT_CALLS,
+        w.STATUS, f"{w.DRIVE}/teleop", f"{w.MOVES}/teleop", w.ODOMETRY, w.ROBOT_CALLS, w.ROBOT_CALLS,
         f"{w.FRAMES}/arm_sdk", f"{w.FRAMES}/arm_sdk/weight",
         f"{w.BODY}/tilt_rad", f"{w.BODY}/gyro_max_rad_s", f"{w.BODY}/battery_soc_pct", f"{w.BODY}/verdicts",
         f"{w.BODY}/tilt_rad", f"{w.BODY}/gyro_max_rad_s", f"{w.BODY}/battery_soc_pct", f"{w.BODY}/verdicts",
@@ -98,6 +102,8 @@ def test_every_event_reads_back_as_its_message_in_order(tmp_path: Path) -> None:
     assert json.loads(by_topic[w.STATUS][1].data)["faults"] == ["tilt: 1.20 rad > 1.00"]
     twist = by_topic[f"{w.MOVES}/teleop"][0]
     assert (twist.linear.x, twist.angular.z) == (0.3, 0.1)
+    measured = by_topic[w.ODOMETRY][0]  # in the body frame, as the node's odom publishes its twist
+    assert (measured.linear.x, measured.linear.y, measured.angular.z) == pytest.approx((0.3, 0.0, 0.1), abs=1e-12)
     calls = [json.loads(m.data) for m in by_topic[w.ROBOT_CALLS]]
     assert [(c["verb"], c["phase"]) for c in calls] == [("SetVelocity", "request"), ("SetVelocity", "answer"),
                                                         ("Damp", "request"), ("Damp", "answer")]

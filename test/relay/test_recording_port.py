@@ -11,11 +11,12 @@ from fakes.fake_clock import FakeClock
 from fakes.fake_robot import FakeRobot
 from fakes.fake_robot_port import FakeRobotPort
 from g1_mode_manager.core.joint_commands import DAMPING
-from g1_mode_manager.core.port import RobotError, RobotPort
-from g1_mode_manager.core.recorder.events import FrameSent, Phase, RobotCall
+from g1_mode_manager.core.port import OdomSample, RobotError, RobotPort
+from g1_mode_manager.core.recorder.events import FrameSent, OdometrySeen, Phase, RobotCall
 from g1_mode_manager.core.user_ctrl import UserCtrlPort
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.fsm import InternalCtrl
+from g1_mode_manager.protocol.odom_fields import OdomFields
 from g1_mode_manager.relay.recording_port import RecordingPort, recording_port
 
 
@@ -85,6 +86,20 @@ def test_frames_are_kept_at_most_once_a_period_per_topic() -> None:
     assert [f.topic for f in frames] == ["lowcmd", "user_lowcmd", "lowcmd"]
     assert len(frames[0].values) == 29 * 5 and max(frames[0].values[3::5]) == 0.0  # kp 0: damping
     assert len(robot.stream("write_lowcmd")) == 51  # every frame went to the robot
+
+
+def test_each_odometry_sample_is_kept_once_however_often_it_is_read() -> None:
+    port, robot, events, _ = _port()
+    assert port.odometry() is None and events == []  # none yet: nothing kept
+    fields = OdomFields(stamp_s=1.0, position=(0.0, 0.0, 0.75), velocity=(0.4, 0.0, 0.0), yaw_speed=0.2,
+                        quaternion=(1.0, 0.0, 0.0, 0.0), gyroscope=(0.0, 0.0, 0.2), rpy=(0.0, 0.0, 0.0),
+                        body_height=0.75)
+    for count in (1, 1, 2, 2, 2, 1, 3):  # read by several parts; a slow reader's older sample comes last but one
+        robot.odom = OdomSample(fields, 0.01, count)
+        assert port.odometry() is robot.odom  # passed on unchanged
+    kept = [e for e in events if isinstance(e, OdometrySeen)]
+    assert len(kept) == 3 and len(events) == 3
+    assert (kept[0].velocity, kept[0].yaw_speed, kept[0].quaternion) == (fields.velocity, 0.2, fields.quaternion)
 
 
 def test_the_user_ctrl_path_is_there_exactly_when_the_port_has_it() -> None:

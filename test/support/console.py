@@ -203,9 +203,9 @@ class FakeManager:
     console reads, ~/mode published at 2 Hz as told, cmd_vel received, and ~/hand_over_to_autonomy and
     ~/take_over, which change ``driver`` and keep each call's name in ``called``; of the policy's services
     ~/policy/load (it publishes the loaded phase on ~/policy/status) and ~/policy/engage (it refuses), the others
-    left out. For console tests without a robot."""
+    left out; ``recorder_dir``, if given, as the node's parameter of that name. For console tests without a robot."""
 
-    def __init__(self, mode: str = "HIGH_LEVEL") -> None:
+    def __init__(self, mode: str = "HIGH_LEVEL", recorder_dir: str | None = None) -> None:
         from g1_mode_manager_msgs.msg import Mode, PolicyStatus
         from g1_mode_manager_msgs.srv import LoadPolicy
         from geometry_msgs.msg import Twist
@@ -223,6 +223,8 @@ class FakeManager:
         for m in Modes:
             self.node.declare_parameter(f"head_led_{m.name.lower()}", "0 255 0 pulse 2.0")
         self.node.declare_parameter("head_led_autonomy", "0 255 255 pulse 1.5")
+        if recorder_dir is not None:
+            self.node.declare_parameter("recorder_dir", recorder_dir)
         self.mode = mode
         self.driver = "teleop"
         self.called: list[str] = []

@@ -113,8 +113,9 @@ POLICY_STALL_S: Final = margin(0.5)
 #: The overrun test's tick bound (policy_overrun_s): above a loaded machine's ordinary policy ticks (p99 of 4-14 ms
 #: in the suite), short enough that three slow ticks in a row do not leave a walking robot to fall first.
 POLICY_OVERRUN_TEST_S: Final = margin(0.1)
-#: The flight recorder's after-window in the recorder's end-to-end test (its recorder_after_s): long enough for a
-#: FAULT's Damp and its answer to land in the incident on a loaded machine (alone: tens of ms).
+#: The flight recorder's after-window in the end-to-end tests that read an incident (its recorder_after_s): long
+#: enough for a stop's Damp and its answer, and an e-stop's answer, to land in the incident on a loaded machine
+#: (alone: tens of ms).
 INCIDENT_AFTER_S: Final = margin(2.0)
 #: An incident file is written within this of its after-window's end (a loaded machine's writer thread).
 INCIDENT_WRITE_S: Final = margin(10.0)

@@ -37,6 +37,8 @@ function send(obj) {
 
 const policyCard = new PolicyCard({ command });
 
+const incidentCard = new IncidentCard({ token });
+
 const teleop = new TeleopInput({ send, stick: $("stick"), knob: $("knob"), onLocalChange: () => renderTeleop() });
 
 function connect() {
@@ -347,8 +349,10 @@ function render() {
   plots.velocity.draw(history);
   plots.tilt.draw(history);
   policyCard.render(s);
+  incidentCard.looks(s.node_params);
 }
 
 window.addEventListener("resize", render);
 renderConnection();
 connect();
+incidentCard.start();

@@ -154,3 +154,99 @@ class JointBars {
     g.fillText(`${title} (${this.unit})`, pad.l, 12);
   }
 }
+
+// An incident over its whole window, in seconds from the stop (t = 0, a red line): series of [t, value] points, each
+// drawn on its own (they come at their own times), the e-stop's steps as dashed marks, and under the plot, if given,
+// the mode over time as a band in each mode's colour.
+class IncidentChart {
+  constructor(canvas, { series, unit, minRange = 0.2, zeroBased = false }) {
+    this.canvas = canvas;
+    this.series = series; // [{ key, label, color }]
+    this.unit = unit;
+    this.minRange = minRange;
+    this.zeroBased = zeroBased;
+  }
+
+  // incident: { start, end, series: { key: [[t, v], ...] }, steps: [{ t }], modes: [[t, mode], ...] } or null;
+  // colors: mode -> css colour, for the band (none: no band).
+  draw(incident, colors) {
+    const { g, w, h } = fitCanvas(this.canvas, 150);
+    g.fillStyle = "#8b96a5";
+    if (!incident) {
+      g.fillText("no incident", 42, h / 2);
+      return;
+    }
+    const start = incident.start;
+    const end = Math.max(incident.end, start + 0.1);
+    let lo = Infinity;
+    let hi = -Infinity;
+    for (const { key } of this.series) {
+      for (const [, v] of incident.series[key] || []) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+    }
+    if (!isFinite(lo)) { lo = 0; hi = this.minRange; }
+    if (this.zeroBased) lo = Math.min(lo, 0);
+    if (hi - lo < this.minRange) hi = lo + this.minRange;
+    const band = colors && incident.modes && incident.modes.length ? 13 : 0;
+    const pad = { l: 42, r: 8, t: 0, b: 28 + band };
+    const keys = [];
+    let lx = pad.l;
+    let ly = 11;
+    for (const { label, color } of this.series) {
+      const width = g.measureText(label).width + 14;
+      if (lx > pad.l && lx + width > w - pad.r) { lx = pad.l; ly += 13; }
+      keys.push({ label, color, lx, ly });
+      lx += width + 16;
+    }
+    pad.t = ly + 7;
+    const x = (t) => pad.l + ((Math.min(end, Math.max(start, t)) - start) / (end - start)) * (w - pad.l - pad.r);
+    const y = (v) => h - pad.b - ((v - lo) / (hi - lo)) * (h - pad.t - pad.b);
+    g.strokeStyle = "#2a323c";
+    g.lineWidth = 1;
+    for (const v of [lo, (lo + hi) / 2, hi]) {
+      g.beginPath(); g.moveTo(pad.l, y(v)); g.lineTo(w - pad.r, y(v)); g.stroke();
+      g.fillText(v.toFixed(2), 2, y(v) + 4);
+    }
+    // seconds from the stop along the bottom: a tick every 1, 2, 5, 10 ... s, as many as fit
+    const step = [1, 2, 5, 10, 20, 50, 100, 200].find((s) => (end - start) / s <= 8) || 500;
+    for (let t = Math.ceil(start / step) * step; t <= end; t += step) {
+      const text = `${t > 0 ? "+" : ""}${t}`;
+      g.fillText(text, x(t) - g.measureText(text).width / 2, h - 15);
+    }
+    g.fillText(`${this.unit} · s from the stop`, pad.l, h - 3);
+    if (band) {
+      const top = h - pad.b + 4;
+      incident.modes.forEach(([t, mode], i) => {
+        const next = i + 1 < incident.modes.length ? incident.modes[i + 1][0] : end;
+        const x0 = x(t);
+        const x1 = x(next);
+        g.fillStyle = colors[mode] || "#5a6472";
+        g.fillRect(x0, top, Math.max(1, x1 - x0), band - 3);
+        if (x1 - x0 > g.measureText(mode).width + 6) {
+          g.fillStyle = "#0b0d10";
+          g.fillText(mode, x0 + 3, top + band - 5);
+        }
+      });
+    }
+    g.setLineDash([3, 3]);
+    g.strokeStyle = "#c9d1db";
+    for (const { t } of incident.steps || []) {
+      g.beginPath(); g.moveTo(x(t), pad.t); g.lineTo(x(t), h - pad.b); g.stroke();
+    }
+    g.setLineDash([]);
+    g.strokeStyle = "#ff4d4d";
+    g.lineWidth = 2;
+    g.beginPath(); g.moveTo(x(0), pad.t); g.lineTo(x(0), h - pad.b); g.stroke();
+    for (const { key, color } of this.series) {
+      g.strokeStyle = color;
+      g.lineWidth = 2;
+      g.beginPath();
+      (incident.series[key] || []).forEach(([t, v], i) => (i ? g.lineTo(x(t), y(v)) : g.moveTo(x(t), y(v))));
+      g.stroke();
+    }
+    for (const { label, color, lx: kx, ly: ky } of keys) {
+      g.fillStyle = color;
+      g.fillRect(kx, ky - 6, 10, 3);
+      g.fillText(label, kx + 14, ky);
+    }
+  }
+}

@@ -31,6 +31,7 @@ class Kind(StrEnum):
     MOVE = "move"  # a Move the cmd_vel relay wrote, and who drove
     ESTOP = "estop"  # an e-stop request as the endpoint took it, and its answer
     FRAME = "frame"  # a joint frame written to the robot (decimated)
+    ODOMETRY = "odometry"  # the robot's state estimate (rt/lf/odommodestate) as a part of the node read it
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,6 +124,17 @@ class EstopStep:
     detail: str = ""
 
 
+@dataclass(frozen=True, slots=True)
+class OdometrySeen:
+    """One sample of the robot's estimate, its tuples as the reader made them: turned into the body frame only
+    when written."""
+
+    kind: ClassVar[Kind] = Kind.ODOMETRY
+    velocity: tuple[float, float, float]  # m/s, in the odometry frame
+    yaw_speed: float  # rad/s
+    quaternion: tuple[float, float, float, float]  # (w, x, y, z) of the body in the odometry frame
+
+
 #: A frame's fields of each motor, in this order, in FrameSent.values.
 FRAME_FIELDS = ("q", "dq", "tau", "kp", "kd")
 
@@ -144,4 +156,5 @@ class FrameSent:
         return FrameSent(topic, values, weight)
 
 
-Event = StatusChange | Attempt | Note | ServiceAnswer | RobotCall | BodyStep | DriveInput | MoveSent | EstopStep | FrameSent
+Event = (StatusChange | Attempt | Note | ServiceAnswer | RobotCall | BodyStep | DriveInput | MoveSent | EstopStep
+         | FrameSent | OdometrySeen)

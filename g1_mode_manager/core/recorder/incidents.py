@@ -48,6 +48,12 @@ def default_folder(env: Mapping[str, str] = os.environ) -> Path:
     return Path(state) / "g1_mode_manager" / "incidents"
 
 
+def folder_for(recorder_dir: str, env: Mapping[str, str] = os.environ) -> Path:
+    """The folder a ``recorder_dir`` setting names: itself (``~`` expanded), or the default folder for ''. The node
+    writes there and the console reads there, by the same rule."""
+    return Path(recorder_dir).expanduser() if recorder_dir else default_folder(env)
+
+
 def file_name(began: float, cause: Cause) -> str:
     whole = int(began)
     millis = int((began - whole) * 1000.0)

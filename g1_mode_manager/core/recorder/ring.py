@@ -34,6 +34,7 @@ RATES_HZ: Final[Mapping[Kind, float]] = {
     Kind.MOVE: 50.0,  # cmd_vel_max_rate_hz
     Kind.ESTOP: 10.0,
     Kind.FRAME: 30.0,
+    Kind.ODOMETRY: 20.0,  # rt/lf/odommodestate's rate: each sample is kept once, however often it is read
 }
 #: Kinds whose last event before a window still holds at its start: the file keeps it, so it says the mode the
 #: window began in.
