@@ -5,9 +5,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from functools import lru_cache
 from math import isfinite
 from operator import le
+from typing import Any
+
+import numpy as np
 
 from g1_mode_manager.core.port import MotorCommand
 from g1_mode_manager.protocol.motors import (
@@ -28,6 +32,8 @@ MAX_KD = 50.0
 #: field deploy clips its targets), the torque it costs is kp times the excess and capped by the motor; a target
 #: of 100 rad is a bug.
 RANGE_MARGIN_RAD = 0.5
+#: The robot's frames hold float32: a larger finite dq would reach it as infinity.
+MAX_ABS_DQ = float(np.finfo(np.float32).max)
 
 
 class JointCommandError(ValueError):
@@ -40,15 +46,17 @@ class JointFrame(Sequence[MotorCommand]):
     field, in the same order) as given, every other joint damped (kp 0, kd DAMPING_KD).
 
     Held as columns so that a 500 Hz relay packs it without a MotorCommand per joint; indexing gives
-    MotorCommands for whoever wants them.
+    MotorCommands for whoever wants them. ``block``, when the frame was checked from one (``validate_joint_block``),
+    is the five columns as one 5 x n float64 array (the columns are its rows): a writer packs it in one step.
     """
 
     indices: tuple[int, ...]
-    q: tuple[float, ...]
-    dq: tuple[float, ...]
-    tau: tuple[float, ...]
-    kp: tuple[float, ...]
-    kd: tuple[float, ...]
+    q: Sequence[float]
+    dq: Sequence[float]
+    tau: Sequence[float]
+    kp: Sequence[float]
+    kd: Sequence[float]
+    block: Any = dataclass_field(default=None, compare=False, repr=False)
 
     def __len__(self) -> int:
         return NUM_JOINTS
@@ -142,12 +150,40 @@ def validate_joint_command(
         indices, limits, lows, highs = _indices(tuple(names), tuple(allowed))
         cols = (_column(q, n), _column(dq, n), _column(tau, n), _column(kp, n), _column(kd, n))
         qc, dqc, tauc, kpc, kdc = cols
-        if (all(map(isfinite, qc)) and all(map(isfinite, dqc)) and all(map(isfinite, tauc))
+        if (all(map(isfinite, qc)) and all(map(isfinite, dqc)) and max(map(abs, dqc)) <= MAX_ABS_DQ
+                and all(map(isfinite, tauc))
                 and all(map(le, lows, qc)) and all(map(le, qc, highs))
                 and _within(kpc, MAX_KP) and _within(kdc, MAX_KD) and all(map(le, map(abs, tauc), limits))):
             return JointFrame(indices, *cols)
     _explain(names, q, dq, tau, kp, kd, allowed)
     raise JointCommandError("joint command refused")  # the explanation always raises; never forward on doubt
+
+
+@lru_cache(maxsize=64)
+def _block_bounds(names: tuple[str, ...], allowed: tuple[str, ...]) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+    """(motor indices, lowest and highest value of each of the five columns) of a list of names, as 5 x n arrays.
+
+    The bounds say what ``validate_joint_command`` checks, column by column: q within its joint's range and the
+    margin, |dq| within what the robot's float32 holds, |tau| within the effort limit, kp and kd within
+    0 and their maximum. NaN fails every comparison, and an infinity every bound."""
+    indices, limits, lows, highs = _indices(names, allowed)
+    n, big = len(indices), MAX_ABS_DQ
+    low = np.array([lows, (-big,) * n, tuple(-x for x in limits), (0.0,) * n, (0.0,) * n], dtype=np.float64)
+    high = np.array([highs, (big,) * n, limits, (MAX_KP,) * n, (MAX_KD,) * n], dtype=np.float64)
+    return indices, low, high
+
+
+def validate_joint_block(names: Sequence[str], block: np.ndarray, *, allowed: Sequence[str]) -> JointFrame:
+    """``validate_joint_command`` for the five columns given as one 5 x len(names) float64 array (q, dq, tau, kp,
+    kd): the same checks, as two comparisons over the whole array; a refused command is explained joint by joint
+    by ``validate_joint_command`` itself."""
+    n = len(names)
+    if n and block.shape == (5, n):
+        indices, low, high = _block_bounds(tuple(names), tuple(allowed))
+        if (low <= block).all() and (block <= high).all():
+            q, dq, tau, kp, kd = block
+            return JointFrame(indices, q, dq, tau, kp, kd, block)
+    return validate_joint_command(names, *block.tolist(), allowed=allowed)
 
 
 def _explain(names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau: Sequence[float],
@@ -159,6 +195,8 @@ def _explain(names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau:
         cmd = MotorCommand(q=_value(q, i), dq=_value(dq, i), tau=_value(tau, i), kp=_value(kp, i), kd=_value(kd, i))
         if not all(isfinite(v) for v in (cmd.q, cmd.dq, cmd.tau, cmd.kp, cmd.kd)):
             raise JointCommandError(f"non-finite value for {names[i]}: {cmd}")
+        if abs(cmd.dq) > MAX_ABS_DQ:
+            raise JointCommandError(f"dq {cmd.dq} of {names[i]} does not fit the robot's float32")
         low, high = JOINT_RANGE_RAD[motor]
         if not low - RANGE_MARGIN_RAD <= cmd.q <= high + RANGE_MARGIN_RAD:
             raise JointCommandError(f"q {cmd.q} of {names[i]} is outside its range [{low}, {high}] rad "
@@ -184,6 +222,11 @@ def validate_lowcmd(
 ) -> JointFrame:
     """Low-level commands may name any of the 29 joints; the joints not named are damped."""
     return validate_joint_command(names, q, dq, tau, kp, kd, allowed=JOINT_NAMES)
+
+
+def validate_lowcmd_block(names: Sequence[str], block: np.ndarray) -> JointFrame:
+    """``validate_lowcmd`` for the five columns as one 5 x n array."""
+    return validate_joint_block(names, block, allowed=JOINT_NAMES)
 
 
 def validate_arm_targets(names: Sequence[str], positions: Sequence[float]) -> dict[int, float]:

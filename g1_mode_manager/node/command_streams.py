@@ -101,4 +101,8 @@ class CommandStreams:
             events.count("lowcmd_refused_policy")
             events.log("warn", "lowcmd_policy", "~/lowcmd refused: a policy runs in LOW_LEVEL (~/policy/disengage)")
             return
-        self._parts.lowcmd.submit(*self._lowcmd_reader.fields(data))
+        block = self._lowcmd_reader.block(data)
+        if block is not None:
+            self._parts.lowcmd.submit_block(*block)
+        else:
+            self._parts.lowcmd.submit(*self._lowcmd_reader.fields(data))

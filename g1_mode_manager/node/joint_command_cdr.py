@@ -8,14 +8,20 @@ sequences are unpacked as tuples. The alignment padding between the names is ski
 serialiser does not clear it, so it holds whatever its buffer held before.
 Only plain little-endian CDR (what Fast DDS writes for ROS messages) is read this way; anything else,
 or bytes that do not parse, goes through rclpy's own deserialisation.
+
+``block`` reads the usual message (five columns of one length) as one 5 x n numpy view of the bytes, no float
+made in Python: past the first column each column is its count, four bytes of padding and its doubles, so the
+five lie in the bytes as rows of n + 1 doubles, the first holding the count.
 """
 
 from __future__ import annotations
 
 import struct
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Final
 
+import numpy as np
 from g1_mode_manager_msgs.msg import JointCommand
 from rclpy.serialization import deserialize_message
 
@@ -26,6 +32,19 @@ _LITTLE_ENDIAN_PLAIN: Final = (b"\x00\x01",)  # CDR_LE (XCDR1): Fast DDS's encod
 
 Fields = tuple[tuple[str, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...],
                tuple[float, ...]]
+
+
+@dataclass(frozen=True, slots=True)
+class _Rows:
+    """Where a message's five columns lie, all of ``n`` doubles: rows of n + 1 doubles from ``at``, each row's
+    first slot holding the column's count; ``counts`` reads the five counts from ``counts_at``."""
+
+    size: int
+    n: int
+    at: int
+    counts: struct.Struct
+    counts_at: int
+    expected: tuple[int, ...]
 
 
 @lru_cache(maxsize=64)
@@ -40,6 +59,7 @@ class JointCommandReader:
         self._layout: struct.Struct | None = None  # the last names' count, lengths and characters, padding skipped
         self._layout_values: tuple = ()
         self._names: tuple[str, ...] = ()
+        self._rows: _Rows | None = None  # where the columns lie, for the last size and names
 
     def fields(self, data: bytes) -> Fields:
         """(names, q, dq, tau, kp, kd) of a serialised JointCommand."""
@@ -51,6 +71,39 @@ class JointCommandReader:
         msg = deserialize_message(data, JointCommand)
         return (tuple(msg.name), tuple(msg.q), tuple(msg.dq), tuple(msg.tau), tuple(msg.kp),
                 tuple(msg.kd))
+
+    def block(self, data: bytes) -> tuple[tuple[str, ...], np.ndarray] | None:
+        """(names, the five columns as a read-only 5 x n float64 view of ``data``), or None when the message is
+        not the usual one (another encoding, a column of another length, bytes that do not parse): ``fields``
+        reads those."""
+        if data[:2] not in _LITTLE_ENDIAN_PLAIN:
+            return None
+        rows = self._rows
+        if rows is None or len(data) != rows.size or not self._same_names(data):
+            rows = self._rows = self._rows_of(data)
+            if rows is None:
+                return None
+        if rows.counts.unpack_from(data, rows.counts_at) != rows.expected:
+            return None
+        view = np.frombuffer(data, dtype="<f8", count=5 * (rows.n + 1), offset=rows.at)
+        return self._names, view.reshape(5, rows.n + 1)[:, 1:]
+
+    def _rows_of(self, data: bytes) -> _Rows | None:
+        """Where the five columns lie in a message of this size with these names, if they all have one per name."""
+        try:
+            names, at, layout = _read_names(data)
+        except (struct.error, UnicodeDecodeError, ValueError):
+            return None
+        self._layout, self._layout_values, self._names = layout, layout.unpack_from(data, _NAMES_AT), names
+        n = len(names)
+        at += -(at - 4) % 4  # the first column's count
+        first = at + 4 + (-at % 8)  # its doubles (8-aligned relative to the payload, after the 4-byte header)
+        rows_at = first - 8  # rows of n + 1 doubles from here: the slot before each column's doubles holds its count
+        if n == 0 or rows_at + 8 * 5 * (n + 1) > len(data):
+            return None
+        # the first count, then each later one at the start of its row (a count, 4 bytes of padding, the doubles)
+        counts = struct.Struct(f"<I{first - at - 4 + 8 * n}x" + f"I{4 + 8 * n}x" * 3 + "I")
+        return _Rows(len(data), n, rows_at, counts, at, (n,) * 5)
 
     def _same_names(self, data: bytes) -> bool:
         layout = self._layout
@@ -65,6 +118,7 @@ class JointCommandReader:
         else:
             names, at, layout = _read_names(data)
             self._layout, self._layout_values, self._names = layout, layout.unpack_from(data, _NAMES_AT), names
+            self._rows = None  # where block() found the columns held for the names before
         columns = []
         for _ in range(5):
             at += -(at - 4) % 4  # CDR aligns relative to the payload, after the 4-byte header

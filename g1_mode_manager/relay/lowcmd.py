@@ -7,9 +7,17 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 
+import numpy as np
+
 from g1_mode_manager.core import modes
 from g1_mode_manager.core.events import RelayEvents
-from g1_mode_manager.core.joint_commands import DAMPING, JointCommandError, JointFrame, validate_lowcmd
+from g1_mode_manager.core.joint_commands import (
+    DAMPING,
+    JointCommandError,
+    JointFrame,
+    validate_lowcmd,
+    validate_lowcmd_block,
+)
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotError, RobotPort
 from g1_mode_manager.core.watchdog import Watchdog
@@ -55,6 +63,17 @@ class LowCmdRelay:
         self._events.count("lowcmd_received")
         try:
             frame = validate_lowcmd(names, q, dq, tau, kp, kd)
+        except JointCommandError as exc:
+            self._events.count("lowcmd_rejected")
+            self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
+            return str(exc)
+        return self.submit_frame(frame)
+
+    def submit_block(self, names: Sequence[str], block: np.ndarray) -> str | None:
+        """``submit`` with the five columns as one 5 x n array (q, dq, tau, kp, kd): the same checks, in numpy."""
+        self._events.count("lowcmd_received")
+        try:
+            frame = validate_lowcmd_block(names, block)
         except JointCommandError as exc:
             self._events.count("lowcmd_rejected")
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")

@@ -33,6 +33,7 @@ _MOTOR_DTYPE: Final = np.dtype([("mode", "u1"), ("_pad", "u1", (3,)), ("q", "<f4
 _C_DTYPE: Final = np.dtype([("mode_pr", "u1"), ("mode_machine", "u1"), ("_pad", "u1", (2,)),
                             ("motor", _MOTOR_DTYPE, (NUM_MOTOR_SLOTS,)), ("reserve", "<u4", (4,)), ("crc", "<u4")])
 _CRC_END: Final = _C_DTYPE.itemsize - 4
+_MOTORS_AT: Final = _C_DTYPE.fields["motor"][1]
 _CRC_WORDS: Final = _CRC_END // 4
 _FIELDS: Final = ("q", "dq", "tau", "kp", "kd")
 
@@ -47,6 +48,14 @@ def check_commands(frame: str, commands: Sequence[MotorCommand], expected: int) 
             raise ValueError(f"{frame}: command {i} has a non-finite value: {c}")
         if c.kp < 0 or c.kd < 0:
             raise ValueError(f"{frame}: command {i} has a negative gain: {c}")
+
+
+def check_block(frame: str, block: np.ndarray) -> None:
+    """``check_columns`` over the five columns as one 5 x n array (q, dq, tau, kp, kd)."""
+    if not np.isfinite(block).all():
+        raise ValueError(f"{frame}: a command has a non-finite value")
+    if block.shape[1] and block[3:].min() < 0:
+        raise ValueError(f"{frame}: a command has a negative gain")
 
 
 def check_columns(frame: str, q: Sequence[float], dq: Sequence[float], tau: Sequence[float], kp: Sequence[float],
@@ -80,9 +89,17 @@ class LowCmdFrame:
         self._columns = {f: self._motor[f] for f in _FIELDS}
         self._mode = self._motor["mode"]
         self._bytes = self._buf.view(np.uint8)
+        self._words = self._buf.view("<u4").reshape(-1)  # the crc is the last word
+        # each motor as 7 words, q..kd the 2nd to 6th: five columns go in with one assignment
+        self._motor_words = self._bytes[_MOTORS_AT:_MOTORS_AT + _MOTOR_DTYPE.itemsize * NUM_MOTOR_SLOTS].view(
+            "<f4").reshape(NUM_MOTOR_SLOTS, _MOTOR_DTYPE.itemsize // 4)
+        self._header = (0, 0)
 
     def set_header(self, mode_pr: int, mode_machine: int) -> None:
-        self._buf["mode_pr"], self._buf["mode_machine"] = int(mode_pr), int(mode_machine)
+        header = (int(mode_pr), int(mode_machine))
+        if header != self._header:  # the same for every frame of a stream: two structured writes saved
+            self._buf["mode_pr"], self._buf["mode_machine"] = header
+            self._header = header
 
     def set_motor(self, index: int, mode: int, command: MotorCommand) -> None:
         self._motor[index] = (int(mode), (0, 0, 0), float(command.q), float(command.dq), float(command.tau),
@@ -94,6 +111,12 @@ class LowCmdFrame:
         self._mode[where] = mode
         for field, values in zip(_FIELDS, columns, strict=True):
             self._columns[field][where] = values
+
+    def set_block(self, indices: tuple[int, ...], mode: int, block: np.ndarray) -> None:
+        """``set_columns`` with the five columns as one 5 x len(indices) array."""
+        where = _index_array(indices)
+        self._mode[where] = mode
+        self._motor_words[where, 1:6] = block.T
 
     def set_all(self, count: int, mode: int, command: MotorCommand) -> None:
         """Motors 0..count-1 all get ``mode`` and ``command``."""
@@ -114,7 +137,7 @@ class LowCmdFrame:
 
     def cdr(self, header: bytes) -> bytes:
         """The serialised sample: encapsulation ``header``, the fields, the crc."""
-        self._buf["crc"] = crc32_of_array(self._buf, _CRC_WORDS)
+        self._words[_CRC_WORDS] = crc32_of_array(self._buf, _CRC_WORDS)
         c = self._bytes.tobytes()
         return b"".join((header, c[:2], c[4:5], b"\0", c[8:]))
 

@@ -10,7 +10,7 @@ from g1_mode_manager.core.port import MotorCommand, RobotError
 from g1_mode_manager.protocol import topics
 from g1_mode_manager.protocol.api_ids import ERR_CLIENT_SEND
 from g1_mode_manager.protocol.motors import DAMPING_KD, MODE_PR, MOTOR_ENABLED, NUM_JOINTS
-from g1_mode_manager.sdk.frames import FrameWriter, LowCmdFrame, check_columns, check_commands
+from g1_mode_manager.sdk.frames import FrameWriter, LowCmdFrame, check_block, check_columns, check_commands
 
 _DAMPED = MotorCommand(kd=DAMPING_KD)
 
@@ -26,13 +26,21 @@ def build_lowcmd_frame(frame: LowCmdFrame, commands: Sequence[MotorCommand], mod
     if not isinstance(commands, JointFrame):
         check_commands("lowcmd", commands, NUM_JOINTS)
         commands = JointFrame.of(commands)
+    block = commands.block
     columns = (commands.q, commands.dq, commands.tau, commands.kp, commands.kd)
-    check_columns("lowcmd", *columns)
+    if block is None:
+        check_columns("lowcmd", *columns)
+    else:
+        check_block("lowcmd", block)
     frame.set_header(MODE_PR, int(mode_machine))
     if len(commands.indices) < NUM_JOINTS:
         frame.set_all(NUM_JOINTS, MOTOR_ENABLED, _DAMPED)
-    if commands.indices:
+    if not commands.indices:
+        return frame
+    if block is None:
         frame.set_columns(commands.indices, MOTOR_ENABLED, columns)
+    else:
+        frame.set_block(commands.indices, MOTOR_ENABLED, block)
     return frame
 
 

@@ -49,6 +49,26 @@ def test_only_in_low_level_and_damps_on_silence(events, clock) -> None:
     assert "gains" in relay.submit(["left_knee_joint"], [0.5], [], [], [-1.0], [1.0])
 
 
+def test_a_block_is_checked_and_forwarded_as_its_columns_are(events, clock) -> None:
+    """The 500 Hz path hands the five columns as one array: the same gate, checks, refusal and frame."""
+    import numpy as np
+
+    port = FakeRobotPort()
+    gate = Gate(Mode.HIGH_LEVEL)
+    relay = _relay(port, gate, events, clock)
+    knee = np.array([[0.5], [0.0], [0.0], [100.0], [1.0]])
+    assert relay.submit_block(["left_knee_joint"], knee) == "mode is HIGH_LEVEL"
+    gate.mode = Mode.LOW_LEVEL
+    assert relay.submit_block(["left_knee_joint"], knee) is None
+    sent = _frames(port)[-1][JOINT_INDEX["left_knee_joint"]]
+    assert (sent.q, sent.kp, sent.kd) == (0.5, 100.0, 1.0)
+    bad = knee.copy()
+    bad[3, 0] = -1.0
+    assert "gains" in relay.submit_block(["left_knee_joint"], bad)
+    assert len(_frames(port)) == 1 and events.counts()["lowcmd_rejected"] == 1
+    assert events.counts()["lowcmd_received"] == 3
+
+
 def test_link_loss_in_low_level_sends_damping_frames(events, clock) -> None:
     port = FakeRobotPort()
     relay = _relay(port, Gate(Mode.LOW_LEVEL), events, clock)

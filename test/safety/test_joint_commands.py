@@ -39,6 +39,18 @@ def test_bad_lowcmd_is_refused_with_a_reason(names, q, kp, kd, tau, match) -> No
         validate_lowcmd(names, q, [], tau, kp, kd)
 
 
+@pytest.mark.parametrize("dq", [1e39, -1e300])
+def test_a_velocity_target_the_robots_float32_cannot_hold_is_refused_not_sent_as_infinity(dq: float) -> None:
+    import numpy as np
+
+    from g1_mode_manager.core.joint_commands import validate_lowcmd_block
+
+    with pytest.raises(JointCommandError, match="float32"):
+        validate_lowcmd(["left_knee_joint"], [0.6], [dq], [], [60.0], [2.0])
+    with pytest.raises(JointCommandError, match="float32"):
+        validate_lowcmd_block(["left_knee_joint"], np.array([[0.6], [dq], [0.0], [60.0], [2.0]]))
+
+
 def test_arm_targets_only_waist_and_arms() -> None:
     assert validate_arm_targets(["left_elbow_joint"], [0.3]) == {JOINT_INDEX["left_elbow_joint"]: 0.3}
     with pytest.raises(JointCommandError, match="not allowed"):
