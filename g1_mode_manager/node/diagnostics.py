@@ -135,7 +135,9 @@ def recorder_status(report: RecorderReport, hardware_id: str) -> DiagnosticStatu
     """The flight recorder: its last incident file, or WARN while incidents cannot be written (the robot is not
     affected: the node runs on, unrecorded)."""
     st = DiagnosticStatus(name="g1_mode_manager: recorder", hardware_id=hardware_id)
-    if report.error:
+    if not report.enabled:
+        st.level, st.message = DiagnosticStatus.OK, "off (recorder_enabled false): nothing is kept"
+    elif report.error:
         st.level, st.message = DiagnosticStatus.WARN, f"incidents cannot be written: {report.error}"
     else:
         st.level = DiagnosticStatus.OK

@@ -154,6 +154,8 @@ DESCRIPTIONS: dict[str, str] = {
     "keys of the other or of remote_estop_keys, nor be part of them.",
     "cmd_vel_stamped": "cmd_vel is geometry_msgs/TwistStamped (stamps older than cmd_vel_timeout_s are dropped) "
     "instead of Twist. Read at start.",
+    "recorder_enabled": "Keep the node's recent past and write incident files (the flight recorder); false: nothing "
+                        "is kept, no file is written, ~/snapshot refuses.",
     "recorder_dir": "Folder of the flight recorder's incident files (MCAP); '' = $XDG_STATE_HOME/g1_mode_manager/"
     "incidents (~/.local/state/g1_mode_manager/incidents without XDG_STATE_HOME). Made if missing.",
     "recorder_window_s": "The flight recorder keeps this much of the node's past; an incident holds it before its "

@@ -142,6 +142,7 @@ class Settings:
     policy_engage_keys: str = "R1+X"
     policy_disengage_keys: str = "L2+Up"
     # --- the flight recorder (relay/flight_recorder.py, docs/recorder.md) ---
+    recorder_enabled: bool = True
     recorder_dir: str = ""
     recorder_window_s: float = 30.0
     recorder_after_s: float = 3.0
@@ -175,7 +176,7 @@ class Settings:
 
     def recorder_config(self, node: str) -> RecorderConfig:
         """The flight recorder's settings; ``node``: the node's full name, for the files' metadata."""
-        return RecorderConfig(folder_for(self.recorder_dir), window_s=self.recorder_window_s,
+        return RecorderConfig(folder_for(self.recorder_dir), enabled=self.recorder_enabled, window_s=self.recorder_window_s,
                               after_s=self.recorder_after_s, max_files=self.recorder_max_files,
                               max_bytes=int(self.recorder_max_total_mb * 1024 * 1024),
                               frame_rate_hz=self.recorder_frame_rate_hz,

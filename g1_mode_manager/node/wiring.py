@@ -65,11 +65,14 @@ def wire(node: Node, settings: Settings, port: RobotPort) -> tuple[Parts, Endpoi
     changes = ChangeListeners()
     logger = node.get_logger()
     recorder = FlightRecorder(settings.recorder_config(node.get_fully_qualified_name()), log=log_to(logger))
-    port = recording_port(port, recorder.add, frame_period_s=recorder.frame_period_s)
-    parts = build_parts(settings, port, NodeLog(logger, recorder), changes, recorder)
+    on = recorder.config.enabled
+    if on:
+        port = recording_port(port, recorder.add, frame_period_s=recorder.frame_period_s)
+    parts = build_parts(settings, port, NodeLog(logger, recorder if on else None), changes, recorder)
     state = StatePublishers(node, settings, parts)
     changes.add(parts.wake_relay_workers)
-    _tap(parts, changes)
+    if on:
+        _tap(parts, changes)
     changes.add(state.publish_mode)
     parts.cmd_vel.sources.on_driver_change = state.publish_mode  # a takeover is on ~/mode at once
     services = Services(node, parts, settings.policy)

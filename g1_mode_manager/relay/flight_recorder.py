@@ -52,6 +52,7 @@ class RecorderConfig:
     """No defaults: the node's parameters (node/settings.py) are the one place they are chosen."""
 
     folder: Path
+    enabled: bool  # false: the node's parts are not tapped, no thread runs, ~/snapshot refuses
     window_s: float
     after_s: float
     max_files: int
@@ -66,6 +67,7 @@ class RecorderReport:
     """What /diagnostics says of the recorder."""
 
     folder: Path
+    enabled: bool = True
     error: str = ""  # why incidents cannot be written now ("" while they can)
     last_file: str = ""
     last_cause: str = ""
@@ -86,13 +88,18 @@ class _Due:
     result: tuple[bool, str] = (False, "not written")
 
 
+def _keep_nothing(_event: object, _at: float | None = None) -> None:
+    """``add`` of a recorder that is off."""
+
+
 class FlightRecorder:
     def __init__(self, config: RecorderConfig, *, log: LogFn, clock: Callable[[], float] = time.monotonic,
                  wall: Callable[[], float] = time.time) -> None:
         self.config = c = config
         rates = {**RATES_HZ, Kind.BODY: c.body_rate_hz, Kind.FRAME: 3.0 * c.frame_rate_hz}
         self.ring = FlightRing(caps_for(c.window_s + c.after_s, rates), clock)
-        self.add = self.ring.add  # what the robot port's recording and every adapter below call
+        # what the robot port's recording and every adapter below call; off, nothing is kept
+        self.add = self.ring.add if c.enabled else _keep_nothing
         self.frame_period_s = 1.0 / c.frame_rate_hz
         self._folder = IncidentFolder(c.folder, max_files=c.max_files, max_bytes=c.max_bytes)
         self._log = log
@@ -105,7 +112,7 @@ class FlightRecorder:
         self._version = -1  # the newest status seen
         self._mode = Mode.UNINITIALIZED  # ... and its mode
         self._estop_via: tuple[str, float] = ("", -math.inf)  # the last e-stop request and when
-        self._report = RecorderReport(c.folder)
+        self._report = RecorderReport(c.folder, c.enabled)
         self._last_body: BodyReadings | None = None  # body_step's, on the body watch's thread only
         self._last_verdicts: tuple[str, ...] = ()
         self._wake = threading.Event()
@@ -177,6 +184,8 @@ class FlightRecorder:
     # --- what the node asks --------------------------------------------------------------------------
     def snapshot(self, timeout_s: float = 10.0) -> tuple[bool, str]:
         """Write the window before now; (True, the file) once written, else (False, why not)."""
+        if not self.config.enabled:
+            return False, "the flight recorder is off (recorder_enabled false)"
         if not self._thread.is_alive():
             return False, "the flight recorder is not running"
         now, done = self._clock(), threading.Event()
@@ -198,7 +207,8 @@ class FlightRecorder:
         return (f"recorder: no incident can be written: {error}",) if error else ()
 
     def start(self) -> None:
-        self._thread.start()
+        if self.config.enabled:
+            self._thread.start()
 
     def stop(self, timeout_s: float = 2.0) -> None:
         """A stop's incident still waiting for its after-window is written now, with what came so far."""

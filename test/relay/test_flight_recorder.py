@@ -24,7 +24,7 @@ def _status(mode: Mode, version: int, faults: tuple[str, ...] = ()) -> MachineSt
 
 
 def _recorder(folder: Path, logs: list, **config) -> FlightRecorder:
-    config = {"window_s": 5.0, "after_s": 0.3, "max_files": 50, "max_bytes": 1 << 30, "frame_rate_hz": 10.0,
+    config = {"enabled": True, "window_s": 5.0, "after_s": 0.3, "max_files": 50, "max_bytes": 1 << 30, "frame_rate_hz": 10.0,
               "body_rate_hz": 100.0, "node": "/g1_mode_manager", **config}
     recorder = FlightRecorder(RecorderConfig(folder, **config), log=lambda level, text: logs.append((level, text)))
     recorder.start()
@@ -84,6 +84,23 @@ def test_a_snapshot_is_written_at_once_and_the_folder_rotated(tmp_path: Path) ->
         recorder.stop()
     assert [str(f.path) for f in list_incidents(tmp_path)] == paths[1:]
     assert _metadata(Path(paths[-1]))["mode"] == "IDLE"
+
+
+def test_a_recorder_turned_off_keeps_nothing_writes_nothing_and_refuses_a_snapshot(tmp_path: Path) -> None:
+    recorder = _recorder(tmp_path, [], enabled=False, after_s=0.0)
+    try:
+        recorder.on_status(_status(Mode.HIGH_LEVEL, 1))
+        recorder.service_answer("set_mode", "high_level", True, "ok")
+        recorder.estop_step("request", "/g1_mode_manager/estop")
+        recorder.on_status(_status(Mode.EMERGENCY, 2))
+        ok, message = recorder.snapshot()
+        time.sleep(0.2)  # an enabled recorder writes the stop's incident within this (its after-window is 0 s)
+    finally:
+        recorder.stop()
+    assert not ok and "recorder_enabled false" in message
+    assert list_incidents(tmp_path) == [] and not any(tmp_path.iterdir())
+    assert not any(recorder.ring.counts().values())
+    assert recorder.report().enabled is False
 
 
 def test_an_unwritable_folder_is_reported_and_nothing_raises(tmp_path: Path) -> None:
