@@ -7,6 +7,11 @@ Run by bench/run.py, which measures this process's CPU while it publishes at 500
 ``python -m bench.relay_floor --domain D --topic /relay_floor/lowcmd [--write]``. It prints ``ready`` once
 its subscription exists and runs until SIGINT/SIGTERM. Whatever the node costs above this figure is its own
 work; this figure itself is rclpy's, Fast DDS's and Cyclone's.
+
+``--check`` (with ``--write``) adds what every frame must go through, and nothing else: the node's own decode,
+validation, frame build, CRC and write of each message's values (``joint_command_cdr``, ``validate_lowcmd_block``,
+``build_lowcmd_frame``), in one flat function, without the node's gate, link check, counters or other threads: the
+floor of a Python relay that checks every frame.
 """
 
 from __future__ import annotations
@@ -24,6 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--domain", type=int, required=True, help="the SDK's DDS domain (the sim's)")
     parser.add_argument("--topic", required=True, help="the JointCommand topic to take")
     parser.add_argument("--write", action="store_true", help="write a constant rt/lowcmd frame per message")
+    parser.add_argument("--check", action="store_true",
+                        help="with --write: decode, check and build each message's own frame (the node's code)")
     args = parser.parse_args(argv)
 
     init_channels(args.domain, "lo")
@@ -39,7 +46,19 @@ def main(argv: list[str] | None = None) -> int:
     node = Node("relay_floor")
     taker = StreamTaker(node, name="floor_taker")
     count = [0]
-    if args.write:
+    if args.write and args.check:
+        from g1_mode_manager.core.joint_commands import validate_lowcmd_block
+        from g1_mode_manager.node.joint_command_cdr import JointCommandReader
+        from g1_mode_manager.sdk.lowcmd import build_lowcmd_frame
+
+        writer = FrameWriter(topics.LOWCMD)
+        reader, frame = JointCommandReader(), LowCmdFrame()
+
+        def on_message(raw: bytes) -> None:
+            count[0] += 1
+            names, block = reader.block(raw)  # the bench's messages are the usual layout
+            writer.write(build_lowcmd_frame(frame, validate_lowcmd_block(names, block), 5))
+    elif args.write:
         writer = FrameWriter(topics.LOWCMD)
         frame = LowCmdFrame()
         # every motor disabled (mode 0, zero gains): nothing changes on a released robot, and the write
