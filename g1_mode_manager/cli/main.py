@@ -28,6 +28,10 @@ def _print_mode(msg) -> None:
     print(line, flush=True)
 
 
+#: How long `g1ctl incidents` waits for the node to name its incident folder, s.
+INCIDENTS_ASK_S = 10.0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="g1ctl", description=__doc__)
     parser.add_argument("--manager", default="/g1_mode_manager", help="the mode manager node (default %(default)s)")
@@ -87,8 +91,12 @@ def _run(args: argparse.Namespace, client: ManagerClient) -> int:
         _print_mode(msg)
         return 0
     if args.cmd == "incidents":
-        folder = client.parameter("recorder_dir")
-        return print_incidents(folder_for(folder or ""))
+        # the node's answer names its folder; a node just started or a loaded machine may take seconds to answer
+        folder = client.parameter("recorder_dir", timeout_s=INCIDENTS_ASK_S)
+        if folder is None:
+            print(f"g1ctl: the mode manager did not say its recorder_dir within {INCIDENTS_ASK_S:g} s (is it "
+                  f"running?): listing the default folder", file=sys.stderr)
+        return print_incidents(folder_for(str(folder or "")))
     if args.cmd == "set-mode":
         r = client.set_mode(args.name)
         print(f"success={r.success} mode={r.mode_name}: {r.message}")
