@@ -1,6 +1,7 @@
-"""The body checks judged by the robot: each condition made true in the sim (a push, a heated motor, a
-frozen state stream, a spinning joint, the gantry let go, a key held on the remote) and the robot's
-reaction read from the sim's record, with its latency.
+"""The body checks judged by the robot: each condition made true in the sim (a heated motor, a frozen state
+stream, a spinning joint, the gantry let go, a key held on the remote) and the robot's reaction read from the
+sim's record, with its latency. A walking robot pushed over is judged in test_recorder.py, on the walk and push
+whose incident that file reads.
 
 LOW_LEVEL runs with a controller streaming the standing pose at 500 Hz, the robot hung in the sim's
 gantry as people hang a G1 for low-level work. "Damping frames" are rt/lowcmd frames with no stiffness
@@ -13,6 +14,8 @@ from __future__ import annotations
 import threading
 import time
 from collections import Counter, deque
+from pathlib import Path
+from typing import Any
 
 import pytest
 from g1_mode_manager_msgs.msg import JointCommand
@@ -20,16 +23,18 @@ from g1_mode_manager_msgs.msg import Mode as ModeMsg
 from sensor_msgs.msg import JointState
 
 from g1_mode_manager.core.body.checks import BY_NAME as CHECKS
-from g1_mode_manager.protocol import api_ids
+from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from g1_sim.physics.model import DEFAULT_POSE
 from harness.rate import run_at_rate
+from support.incidents import ROBOT_CALLS, answered, json_of, messages, metadata, wait_for_incident
 from support.mode_manager import wait_until
-from support.sim_record import confirming_damp, damped, is_damp, of_kind, requests, states, velocity_of
+from support.sim_record import damped, is_damp, of_kind, requests, states
 from support.timing import (
     BODY_SAMPLE_S,
     CONTROLLER_STALL_S,
-    HIGH_LEVEL_DAMP_S,
+    INCIDENT_AFTER_S,
+    INCIDENT_WRITE_S,
     LOW_LEVEL_REACTION_S,
     RECORD_WAIT_S,
     REMOTE_REACTION_S,
@@ -201,43 +206,6 @@ def _damping_reaction(stack, name: str, t_condition: float, goal_s: float, since
     return t_damping
 
 
-def test_a_walking_robot_pushed_over_is_damped(shared_stack_factory) -> None:
-    stack = shared_stack_factory()
-    stack.modes()
-    assert stack.set_mode("high_level").success
-    assert stack.loco("start").success
-    driving = threading.Event()
-    driver = threading.Thread(target=lambda: [stack.drive(0.3, 0.2) for _ in iter(driving.is_set, True)], daemon=True)
-    driver.start()
-    try:
-        assert wait_until(lambda: any(any(velocity_of(e) or []) for e in requests(stack.record.events(),
-                                                                                 api_ids.LOCO_SET_VELOCITY)), 10.0)
-        t_small = time.monotonic()
-        stack.set_faults({"push": {"force": 150, "direction": [1, 0], "duration": 0.2}})  # it walks on
-        # watched 1.5 s: the sway this push causes peaks (~0.16 rad) 0.6 s in and is over within 1 s of sim time,
-        # and a push that fells the robot has it past 1 rad ~0.5 s in (the 600 N push below); the rest is slack for a
-        # sim running below real time on a loaded machine
-        time.sleep(1.5)
-        assert [m.name for m in stack.modes() if m.mode != ModeMsg.HIGH_LEVEL and m.mode != ModeMsg.UNINITIALIZED] == []
-        assert all(e["tilt"] < 1.0 for e in of_kind(stack.record.events(t_small), "body"))
-        t0 = time.monotonic()
-        stack.set_faults({"push": {"force": 600, "direction": [1, 0], "duration": 0.3}})
-        fault = _fault_seen(stack, "tilt", "spin")
-    finally:
-        driving.set()
-        driver.join(5.0)
-    t_tilt = _first_body(stack, t0, "tilt", 1.0)
-    t_damp = next(e["t"] for e in requests(stack.record.events(t0)) if is_damp(e))
-    check_latency("pushed over in HIGH_LEVEL: the node's Damp", t_tilt, t_damp, HIGH_LEVEL_DAMP_S)
-    # a Move written before the FAULT closed the gate may still land after its DampNoReply; none after the
-    # sequence's Damp
-    t_cut = confirming_damp(stack.record.events(t0))["t"]
-    moves = [e for e in requests(stack.record.events(t_cut), api_ids.LOCO_SET_VELOCITY) if any(velocity_of(e) or [])]
-    assert moves == [], moves[:3]
-    _damped_on_the_robot(stack, t0)
-    print(f"~/mode: {fault.name}, faults {list(fault.faults)}")
-
-
 def test_low_level_checks_damp_a_streaming_controller(shared_stack_factory) -> None:
     stack = shared_stack_factory(node_params=("fault_clear_hold_s:=0.5", STEADY), bridge_args=("--gantry",))
     stack.modes()
@@ -298,13 +266,28 @@ def test_low_level_checks_damp_a_streaming_controller(shared_stack_factory) -> N
 
 
 @pytest.mark.parametrize("mode", ["idle", "high_level", "low_level"])
-def test_the_remote_combination_stops_the_robot(shared_stack_factory, mode: str) -> None:
-    stack = shared_stack_factory(node_params=(STEADY,), bridge_args=("--gantry",) if mode == "low_level" else ())
+def test_the_remote_combination_stops_the_robot(shared_stack_factory, tmp_path: Path, mode: str) -> None:
+    """In LOW_LEVEL the stop's incident is read too (_the_remote_stops_incident): the one mode whose frames the
+    node forwards, the others' steps being those of any e-stop."""
+    incidents = tmp_path / "incidents"
+    recorder = (f"recorder_dir:={incidents}", f"recorder_after_s:={INCIDENT_AFTER_S}") if mode == "low_level" else ()
+    stack = shared_stack_factory(node_params=(STEADY, *recorder),
+                                 bridge_args=("--gantry",) if mode == "low_level" else ())
     stack.modes()
     controller = Controller(stack) if mode == "low_level" else None
     try:
         if controller is not None:
+            t_entry = time.monotonic()
             t0 = _low_level_with_controller(stack, controller)
+            # the recorder keeps a frame per topic every 1 / recorder_frame_rate_hz: three such periods of the
+            # controller's frames on the robot before the stop leave more than one of them in its incident
+            period_s = 1.0 / Settings.recorder_frame_rate_hz
+
+            def streamed_s() -> float:
+                frames = _user_frames(stack, t_entry)
+                return frames[-1]["t"] - frames[0]["t"] if frames else 0.0
+
+            assert wait_until(lambda: streamed_s() >= 3 * period_s, RECORD_WAIT_S), "the controller's frames stopped"
         else:
             assert stack.set_mode(mode).success
             t0 = time.monotonic()
@@ -320,6 +303,51 @@ def test_the_remote_combination_stops_the_robot(shared_stack_factory, mode: str)
     finally:
         if controller is not None:
             controller.stop()
+    if controller is not None:
+        _the_remote_stops_incident(incidents, controller.msg)
+
+
+def _the_remote_stops_incident(folder: Path, command: JointCommand) -> None:
+    """L2+B in LOW_LEVEL, read from its incident file: the controller's frames as the node forwarded them on
+    rt/lowcmd (kept at the recorder's frame rate), then the remote's e-stop (its DampNoReply first), EMERGENCY,
+    the Damp and its answer with the robot's latency; after EMERGENCY no frame with stiffness (a damping frame
+    of the stop may follow)."""
+    path = wait_for_incident(folder, "emergency", INCIDENT_AFTER_S + INCIDENT_WRITE_S)
+    info = metadata(path)
+    assert info["cause"] == "EMERGENCY from LOW_LEVEL" and info["mode"] == "EMERGENCY", info
+    got = messages(path)
+    note = next((m for m, n in json_of(got, "/recorder/notes")
+                 if n["level"] == "error" and n["text"].startswith("E-STOP from the robot's remote")), None)
+    assert note is not None, json_of(got, "/recorder/notes")
+    calls = json_of(got, ROBOT_CALLS)
+    shot = [m for m, c in calls if c["verb"] == "DampNoReply" and c["phase"] == "no_reply" and c["code"] == 0
+            and m.order < note.order]
+    assert shot, "no DampNoReply in front of the remote's e-stop"
+    emergency = next(m for m, s in json_of(got, "/recorder/status") if s["mode"] == "EMERGENCY")
+    assert shot[-1].t <= note.t <= emergency.t and shot[-1].order < note.order < emergency.order
+
+    frames = [m for m in got if m.topic in ("/recorder/frames/lowcmd", "/recorder/frames/user_lowcmd")]
+
+    def the_controllers(frame: Any) -> bool:  # a JointCommand as mcap_ros2 decodes it
+        return (list(frame.name) == list(command.name) and list(frame.kp) == list(command.kp)
+                and list(frame.kd) == list(command.kd) and list(frame.q) == list(command.q))
+
+    # up to EMERGENCY: the gate closes there, so a frame written between the remote's note and it is the user's too
+    users = [m for m in frames if m.topic == "/recorder/frames/lowcmd" and m.order < emergency.order
+             and the_controllers(m.data)]
+    assert len(users) >= 2, f"the controller's frames before the stop: {[(m.topic, max(m.data.kp)) for m in frames]}"
+    stiff = [(m.topic, m.t - emergency.t, max(m.data.kp)) for m in frames if m.order > emergency.order
+             and max(m.data.kp) > 0.0]
+    assert stiff == [], f"frames with stiffness after EMERGENCY: {stiff}"
+
+    damp = next((m, c) for m, c in calls if c["verb"] == "Damp" and c["phase"] == "request"
+                and m.order > emergency.order)
+    _reply, answer = answered(got, damp)
+    assert answer["code"] == 0 and answer["latency_ms"] > 0.0, answer
+    print(f"incident {path.name}: {len(users)} of the controller's frames before the stop (the last "
+          f"{1000 * (note.t - users[-1].t):.0f} ms before it), "
+          f"{sum(1 for m in frames if m.order > emergency.order)} damping frames after; the Damp "
+          f"{1000 * (damp[0].t - note.t):.1f} ms after the remote's e-stop, answered in {answer['latency_ms']:.1f} ms")
 
 
 def test_the_deadman_passes_user_frames_only_while_its_key_is_held(shared_stack_factory) -> None:

@@ -3,7 +3,8 @@
 Every scenario makes a race window as long as it is on a real G1 (ReleaseMode/SelectMode take seconds)
 with the sim's delay faults, fires the e-stop inside it, and asserts on the sim's record: the robot is
 damping with "ai" selected when the e-stop answers success, and stays so; a call that was in flight
-and landed after the e-stop's Damp is followed by a re-damp.
+and landed after the e-stop's Damp is followed by a re-damp. The e-stop mid-walk is read from its incident file
+too (support/incidents.py): the node's own account of the same Moves and the stop's steps.
 """
 
 from __future__ import annotations
@@ -11,13 +12,15 @@ from __future__ import annotations
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import pytest
 
 from g1_mode_manager.protocol import api_ids
+from support.incidents import ROBOT_CALLS, answered, json_of, messages, metadata, wait_for_incident
 from support.mode_manager import wait_until
 from support.sim_record import confirming_damp, damped, is_damp, requests, states, velocity_of
-from support.timing import QUIET_WINDOW_S
+from support.timing import INCIDENT_AFTER_S, INCIDENT_WRITE_S, QUIET_WINDOW_S
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
@@ -154,9 +157,12 @@ def test_another_program_undamping_the_robot_is_overridden_within_1_s(shared_sta
     assert "EMERGENCY re-asserted" in "\n".join(stack.node.lines)
 
 
-def test_no_move_reaches_the_robot_after_the_estop(shared_stack_factory) -> None:
-    """A teleop keeps publishing through the e-stop: nothing but Damp after the e-stop's Damp."""
-    stack = shared_stack_factory()
+def test_no_move_reaches_the_robot_after_the_estop_and_its_incident_holds_the_moves_and_the_steps(
+        shared_stack_factory, tmp_path: Path) -> None:
+    """A teleop keeps publishing through the e-stop: nothing but Damp after the e-stop's Damp. The stop's incident
+    file (_the_estops_incident) holds the same Moves and the e-stop's steps."""
+    incidents = tmp_path / "incidents"
+    stack = shared_stack_factory(node_params=(f"recorder_dir:={incidents}", f"recorder_after_s:={INCIDENT_AFTER_S}"))
     assert stack.set_mode("high_level").success
     assert stack.loco("start").success
     stop_driving = threading.Event()
@@ -192,10 +198,52 @@ def test_no_move_reaches_the_robot_after_the_estop(shared_stack_factory) -> None
     assert late == [], late
     # the scenario exercised something: Moves flowed (the ramp at 20 Hz, then the 10 Hz keep-alive) up to the
     # e-stop, the last one within a few keep-alive periods of it
-    before = [e for e in requests(stack.record.events(), api_ids.LOCO_SET_VELOCITY)
-              if e["t"] < t_request and any(velocity_of(e))]
+    received = [e for e in requests(stack.record.events(), api_ids.LOCO_SET_VELOCITY) if any(velocity_of(e))]
+    before = [e for e in received if e["t"] < t_request]
     assert len(before) >= 10, f"{len(before)} Moves before the e-stop: the scenario exercised nothing"
     assert t_request - before[-1]["t"] < 0.3, "Moves had stopped before the e-stop"
+    _the_estops_incident(incidents, stack.name("estop"), received)
+
+
+def _the_estops_incident(folder: Path, service: str, received: list[dict]) -> None:
+    """The e-stop's incident file, in the node's order: the Moves, each answered by the robot with its latency,
+    every one of them the robot received; then the e-stop's first packet (DampNoReply), its request, EMERGENCY (no
+    Move from here: the forward gate closed), the Damp and its answer, the robot seen damped, the answer."""
+    path = wait_for_incident(folder, "emergency", INCIDENT_AFTER_S + INCIDENT_WRITE_S)
+    info = metadata(path)
+    assert info["cause"] == f"EMERGENCY from HIGH_LEVEL ({service})" and info["mode"] == "EMERGENCY", info
+    got = messages(path)
+    [request] = [m for m, e in json_of(got, "/recorder/estop") if e["step"] == "request" and e["via"] == service]
+    answer = [(m, e) for m, e in json_of(got, "/recorder/estop") if e["step"] == "answer" and e["via"] == service]
+    assert len(answer) == 1 and answer[0][1]["detail"].startswith("success=True"), answer
+    statuses = json_of(got, "/recorder/status")
+    emergency = next(m for m, s in statuses if s["mode"] == "EMERGENCY")
+    confirmed = next(m for m, s in statuses if s["mode"] == "EMERGENCY" and s["damp_confirmed"])
+    calls = json_of(got, ROBOT_CALLS)
+    shot = [m for m, c in calls if c["verb"] == "DampNoReply" and c["phase"] == "no_reply" and c["code"] == 0]
+    assert shot and shot[0].order < request.order, "the DampNoReply did not go out before the request was noted"
+    damp = next((m, c) for m, c in calls if c["verb"] == "Damp" and c["phase"] == "request"
+                and m.order > emergency.order)
+    damped, damped_value = answered(got, damp)
+    assert damped_value["code"] == 0 and damped_value["latency_ms"] > 0.0, damped_value
+    assert shot[0].order < request.order < emergency.order < damp[0].order < damped.order < confirmed.order \
+        < answer[0][0].order
+
+    moves = [(m, c) for m, c in calls if c["verb"] == "SetVelocity" and c["phase"] == "request"
+             and any(c["parameter"][axis] != 0.0 for axis in ("vx", "vy", "wz"))]
+    # the gate closes at EMERGENCY: a Move it let through just before may be noted after the request
+    assert [m.t - emergency.t for m, _c in moves if m.order > emergency.order] == []
+    assert len(moves) == len(received), f"{len(moves)} Moves in the file, {len(received)} on the robot"
+    replies = [answered(got, move)[1] for move in moves]
+    acknowledged = [a for a in replies if a["code"] == 0]
+    assert len(acknowledged) >= 3 and all(a["latency_ms"] > 0.0 for a in acknowledged), replies[:5]
+    assert any(m.data.linear.x > 0.0 for m in got if m.topic == "/recorder/moves/teleop" and m.t < request.t)
+    latencies = [a["latency_ms"] for a in acknowledged]
+    noted_late = sum(1 for m, _c in moves if m.order > request.order)
+    print(f"incident {path.name}: {len(got)} messages; {len(moves)} Moves ({len(acknowledged)} acknowledged in "
+          f"{min(latencies):.1f}-{max(latencies):.1f} ms, {noted_late} noted between the request and EMERGENCY); "
+          f"the Damp {1000 * (damp[0].t - request.t):.1f} ms after the request, answered in "
+          f"{damped_value['latency_ms']:.1f} ms; answered {1000 * (answer[0][0].t - request.t):.0f} ms after it")
 
 
 _OTHER: list = []
