@@ -1,5 +1,6 @@
-"""Play one lifetime's planned load against the node: two operators, one sending commands and one streaming, each
-in its own thread, every action at its planned instant (or at once, if the one before ran late)."""
+"""Play one lifetime's planned load against the node: two operators, one sending commands and one streaming, and a
+third caller asking for ~/snapshot now and then, each in its own thread, every action at its planned instant (or at
+once, if the one before ran late)."""
 
 from __future__ import annotations
 
@@ -15,14 +16,18 @@ FAULT = 5  # Mode.FAULT
 RATE_HZ = {"drive": 20.0, "arm": 50.0, "lowcmd": 100.0}
 #: Faults the sim keeps while no link is lost (none: the soak judges the node, not a failing robot).
 NO_FAULTS: dict[str, Any] = {}
+#: ~/snapshot answers once its file is written, or after the node's own 10 s bound: room above that.
+SNAPSHOT_TIMEOUT_S = 20.0
 
 
 class Load:
     """The operators. ``outcomes`` counts each action's result, e.g. ``mode:ok``, ``loco:refused``, ``mode:timeout``."""
 
-    def __init__(self, stack: Any, last_mode: Callable[[], int | None]) -> None:
+    def __init__(self, stack: Any, last_mode: Callable[[], int | None],
+                 on_snapshot: Callable[[str], None] = lambda _path: None) -> None:
         self.stack = stack
         self._last_mode = last_mode
+        self._on_snapshot = on_snapshot  # told each written snapshot's path, as ~/snapshot answers it
         self._pubs: dict[str, Any] = {}
         self.outcomes: Counter[str] = Counter()
         self._lock = threading.Lock()
@@ -40,7 +45,8 @@ class Load:
 
     def start(self, plan: Lifetime, t0: float, stop: threading.Event) -> list[threading.Thread]:
         threads = [threading.Thread(target=self._operator, args=(actions, t0, stop), daemon=True, name=name)
-                   for name, actions in (("commands", plan.commands), ("streams", plan.streams))]
+                   for name, actions in (("commands", plan.commands), ("streams", plan.streams),
+                                         ("snapshots", plan.snapshots))]
         for th in threads:
             th.start()
         return threads
@@ -66,6 +72,13 @@ class Load:
             return _ok(s.loco(a.arg).success)
         if a.kind == "clear":
             return _ok(s.clear_fault().success)
+        if a.kind == "snapshot":
+            from std_srvs.srv import Trigger
+
+            reply = s.ros.call(Trigger, s.name("snapshot"), Trigger.Request(), SNAPSHOT_TIMEOUT_S)
+            if reply.success:
+                self._on_snapshot(reply.message)
+            return _ok(reply.success)
         if a.kind == "link_loss":
             s.set_faults({**NO_FAULTS, "pause_state": True})
             stop.wait(a.seconds)  # an e-stop meanwhile: the link comes back after it (the run clears the faults)

@@ -2,7 +2,9 @@
 lifetime after node lifetime, each under the planned random load (soak.schedule) and ended by an e-stop, then
 the node restarted and the robot reset. Every lifetime is judged like a chaos scenario (chaos.scenario.judge,
 on the sim's record of that lifetime); the node's resources are sampled at fixed ages (soak.sampler) and judged
-for growth (soak.growth). Writes samples.csv, soak.svg and report.md to ``--out``; its last line is
+for growth (soak.growth). Every node writes its flight recorder's incidents into one folder, ``--out``/incidents,
+with small rotation limits, and the folder is judged after each lifetime (soak.recorder). Writes samples.csv,
+soak.svg and report.md to ``--out``; its last line is
 ``soak: M minutes, V violations, growth: none|<what grew>``, and it exits non-zero on a violation or growth.
 
 Every process it starts is stopped at the end, on Ctrl-C or SIGTERM too (they run in sessions of their own, so a
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import signal
 import threading
 import time
@@ -24,6 +27,7 @@ from chaos.scenario import Claims, judge
 from e2e.conftest import Stack
 from soak import growth, report
 from soak.load import NO_FAULTS, Load
+from soak.recorder import Limits, RecorderLedger
 from soak.sampler import SampleLog, Sampler
 from soak.schedule import Lifetime, plan_soak
 from soak.svg_plot import write_svg
@@ -37,6 +41,14 @@ ESTOP_TIMEOUT_S = 40.0  # the e-stop's bound (estop_timeout_s 10 s + a call) wit
 AFTER_ESTOP_S = 2.0  # the streams go on this long after the e-stop: none of it may reach the robot
 SETTLE_S = 12.0  # after the e-stop the robot must be seen damped within this (as in the chaos suite)
 LOAD_JOIN_S = 40.0  # an operator's call in flight at the e-stop (a set_mode waits up to 20 s)
+#: The flight recorder's limits for the run: small, so that the run's incidents (an e-stop and a snapshot or two
+#: per lifetime, and each FAULT's) rotate, by count and sometimes by size. This load's files took 268-467 KiB
+#: (a 30 s window), so four of them take 1.1-1.9 MB: about half the time over 1.5 MB.
+RECORDER_MAX_FILES = 4
+RECORDER_MAX_TOTAL_MB = 1.5
+#: The e-stop's incident is written this long after EMERGENCY's entry: well before the node is stopped.
+RECORDER_AFTER_S = 1.0
+FOLDER_LOOK_S = 1.0  # how often the folder is looked at during a lifetime (sizes of files later rotated away)
 
 
 def parse(argv: list[str] | None) -> argparse.Namespace:
@@ -61,6 +73,9 @@ class Soak:
         self.record_path = self.out / "sim_record.jsonl"
         self.record_path.unlink(missing_ok=True)
         (self.out / "modes.jsonl").unlink(missing_ok=True)
+        incidents = self.out / "incidents"
+        shutil.rmtree(incidents, ignore_errors=True)  # rotation is judged on this run's files alone
+        self.recorder = RecorderLedger(incidents, Limits(RECORDER_MAX_FILES, RECORDER_MAX_TOTAL_MB), RECORDER_AFTER_S)
         self.log = SampleLog(str(self.out / "samples.csv"))
         self.plan = plan_soak(args.seed, args.minutes, args.lifetime_s)
         self.violations: dict[int, list[str]] = {}
@@ -71,6 +86,7 @@ class Soak:
         self.ros: RosClient | None = None
         self.claims = Claims()
         self.load_stop = threading.Event()
+        self.t_estop_wall = 0.0
 
     # --- the parts, made once ---------------------------------------------------------------------------------
     def start(self) -> None:
@@ -95,7 +111,7 @@ class Soak:
         self.estop_pubs = {"topic_reliable": node.create_publisher(Bool, "/estop", QoSProfile(depth=10)),
                            "topic_best_effort": node.create_publisher(
                                Bool, "/estop", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))}
-        self.load = Load(self.stack, self._last_mode)
+        self.load = Load(self.stack, self._last_mode, self.recorder.snapshot_answered)
         self.load.publishers()
 
     def _on_mode(self, msg: Any) -> None:
@@ -131,7 +147,8 @@ class Soak:
         self.sim.reset()
         self.stack.set_faults(NO_FAULTS)  # the reset cleared the robot's; the parameter must say so too
         self.claims = Claims()
-        self.node = node = start_mode_manager(self.sdk_domain)
+        self.recorder.lifetime_starts()
+        self.node = node = start_mode_manager(self.sdk_domain, *self.recorder.node_params())
         t_ready = time.monotonic()
         self.stack.node, self.stack.record = node, record
         sampler = Sampler(self.log, lifetime=p.index, pid=node.proc.pid, bridge_pid=self.bridge.proc.pid,
@@ -145,6 +162,8 @@ class Soak:
             bad.append(f"the node's /estop subscription did not match within 10 s ({p.estop_via})")
         self.load_stop = stop = threading.Event()
         operators = self.load.start(p, t_ready, stop)
+        operators.append(threading.Thread(target=self._look_at_folder, args=(stop,), daemon=True, name="folder"))
+        operators[-1].start()
         time.sleep(max(0.0, t_ready + p.length_s - time.monotonic()))
         bad += self._estop(p, estop_pub)
         time.sleep(AFTER_ESTOP_S)
@@ -163,6 +182,7 @@ class Soak:
             bad.append(f"the node died during lifetime {p.index} (exit {node.proc.returncode}): {node.output()[-1500:]}")
         bad += judge(record.after_last_reset(), self.claims, end_state)
         self._save_claims(p.index)
+        estop_there = self.recorder.estop_file_there(self.t_estop_wall)
         t_stop = time.monotonic()
         code = node.stop()
         self.node = None
@@ -170,11 +190,24 @@ class Soak:
             self.notes.append(f"lifetime {p.index}: the node exited {code} after {time.monotonic() - t_stop:.1f} s "
                               f"on SIGINT: {node.output()[-1500:]}")
         self.ros.wait_service_gone(f"{NODE}/set_mode")
+        bad += self.recorder.judge(p.index, node.output(), estop_wall=self.t_estop_wall,
+                                   estop_before_stop=estop_there)
+        files = self.recorder.lifetimes[-1]
         print(f"soak: lifetime {p.index} done at {(time.monotonic() - self.t0) / 60:.1f} min: {p.length_s:.0f} s, "
-              f"e-stop via {p.estop_via} ({self._estop_said()}), {len(bad)} violations, exit {code}; load "
-              f"{dict(sorted(self.load.outcomes.items()))}", flush=True)
+              f"e-stop via {p.estop_via} ({self._estop_said()}), {len(bad)} violations, exit {code}; incidents "
+              f"{files.written} written, {files.removed} rotated away, {files.kept} kept "
+              f"({files.total_bytes / 1024:.0f} KiB); load {dict(sorted(self.load.outcomes.items()))}", flush=True)
         self.load.outcomes.clear()
         return bad
+
+    def _look_at_folder(self, stop: threading.Event) -> None:
+        """The folder's files and sizes during the lifetime: a file rotated away before the lifetime's end is still
+        counted, and its size known to the rotation's judge."""
+        while not stop.wait(FOLDER_LOOK_S):
+            try:
+                self.recorder.look()
+            except OSError as e:  # a listing racing a removal: the next look sees the folder settled
+                self.notes.append(f"incident folder: {e}")
 
     def _save_claims(self, lifetime: int) -> None:
         """What the node said on ~/mode in this lifetime, and when (the judge's input beside the sim's record)."""
@@ -192,7 +225,7 @@ class Soak:
         from std_srvs.srv import Trigger
 
         claims = self.claims
-        claims.t_estop = time.monotonic()
+        claims.t_estop, self.t_estop_wall = time.monotonic(), time.time()  # UNIX time: the incidents' clock
         if topic_pub is not None:
             topic_pub.publish(Bool(data=True))
             return []
@@ -234,9 +267,12 @@ class Soak:
                 f"sampled every {a.sample_s:g} s, warm-up {a.warmup_s:g} s", "",
                 "Each figure at age 0 → the first sample after the warm-up → the last sample before the e-stop.", "",
                 *report.figures_table(rows, a.warmup_s, counts), "", "Noise (growth.noise) and thresholds:",
-                *report.noise_lines(rows, a.warmup_s), ""]
+                *report.noise_lines(rows, a.warmup_s), "",
+                f"The flight recorder's folder ({self.recorder.folder}), judged after each lifetime:", "",
+                *self.recorder.table(), "", self.recorder.sizes_line(), ""]
         text += [f"violation, lifetime {k}: {b}" for k, v in self.violations.items() for b in v]
         text += [f"note: {n}" for n in self.notes] + ([f"the run failed: {failure}"] if failure else [])
+        text.append(self.recorder.summary())
         text.append(report.last_line(minutes, n_bad, grew))
         (self.out / "report.md").write_text("\n".join(text) + "\n")
         write_svg(rows, str(self.out / "soak.svg"), f"make soak: seed {a.seed}, {minutes:.0f} min, "

@@ -20,6 +20,9 @@ COMMAND_GAP_S = (2.0, 8.0)
 STREAM_S = (1.0, 6.0)
 STREAM_GAP_S = (0.5, 4.0)
 LINK_LOSS_S = (1.0, 2.0)
+#: ~/snapshot (an incident file written at once): the first within a shortest lifetime, then now and then.
+FIRST_SNAPSHOT_S = (1.0, 58.0)
+SNAPSHOT_GAP_S = (120.0, 300.0)
 #: A lifetime's length is drawn in [1 - JITTER, 1 + JITTER] x the mean, so restarts do not fall on a beat.
 JITTER = 0.2
 #: Wall time a restart costs besides the lifetimes (e-stop settle, node stop, sim reset, node start), s:
@@ -44,6 +47,7 @@ class Lifetime:
     estop_via: str  # "service", "topic_reliable", "topic_best_effort"
     commands: tuple[Action, ...]  # one operator, in order
     streams: tuple[Action, ...]  # another, in order, overlapping the commands
+    snapshots: tuple[Action, ...]  # ~/snapshot calls, a third caller
 
 
 def plan_soak(seed: int, minutes: float, lifetime_s: float = 300.0) -> list[Lifetime]:
@@ -65,8 +69,8 @@ def plan_soak(seed: int, minutes: float, lifetime_s: float = 300.0) -> list[Life
 
 
 def lifetime(seed: int, index: int, length_s: float) -> Lifetime:
-    """Lifetime ``index`` of the run ``seed``. The e-stop's way, the commands and the streams each draw from a
-    random stream of their own, so a lifetime cut shorter (a run's last) plays a prefix of the same load."""
+    """Lifetime ``index`` of the run ``seed``. The e-stop's way, the commands, the streams and the snapshots each draw
+    from a random stream of their own, so a lifetime cut shorter (a run's last) plays a prefix of the same load."""
     rng = random.Random(f"{seed}/{index}/commands")
     commands = [Action(0.5, "mode", rng.choice(MODES))]  # connect at once: the node's first call touches the robot
     t = 0.5
@@ -80,7 +84,13 @@ def lifetime(seed: int, index: int, length_s: float) -> Lifetime:
         streams.append(_stream(rng, round(t, 2), seconds))
         t += seconds + rng.uniform(*STREAM_GAP_S)
     via = random.Random(f"{seed}/{index}/estop").choice(ESTOP_VIA)
-    return Lifetime(index, length_s, via, tuple(commands), tuple(streams))
+    rng = random.Random(f"{seed}/{index}/snapshots")
+    snapshots = []
+    t = rng.uniform(*FIRST_SNAPSHOT_S)
+    while t < length_s - 1.0:
+        snapshots.append(Action(round(t, 2), "snapshot"))
+        t += rng.uniform(*SNAPSHOT_GAP_S)
+    return Lifetime(index, length_s, via, tuple(commands), tuple(streams), tuple(snapshots))
 
 
 def _command(rng: random.Random, at: float) -> Action:

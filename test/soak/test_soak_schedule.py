@@ -3,9 +3,21 @@ every action where and as long as the plan says."""
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 
-from soak.schedule import JITTER, LINK_LOSS_S, MIN_LIFETIME_S, RESTART_S, STREAM_S, lifetime, plan_soak
+from soak.schedule import (
+    FIRST_SNAPSHOT_S,
+    JITTER,
+    LINK_LOSS_S,
+    MIN_LIFETIME_S,
+    RESTART_S,
+    SNAPSHOT_GAP_S,
+    STREAM_S,
+    lifetime,
+    plan_soak,
+)
 
 
 def test_the_same_seed_plans_the_same_load() -> None:
@@ -34,6 +46,7 @@ def test_a_shorter_lifetime_plays_a_prefix_of_the_same_load() -> None:
     full, cut = lifetime(5, 2, 300.0), lifetime(5, 2, 120.0)
     assert cut.commands == full.commands[: len(cut.commands)]
     assert cut.streams == full.streams[: len(cut.streams)]
+    assert cut.snapshots == full.snapshots[: len(cut.snapshots)]
 
 
 def test_each_lifetime_connects_first_and_acts_within_its_length() -> None:
@@ -62,3 +75,13 @@ def test_the_load_mixes_every_kind_within_the_node_s_limits() -> None:
             vx, vy, wz = a.arg
             assert abs(vx) <= 0.8 and abs(vy) <= 0.4 and abs(wz) <= 1.0  # the node's max_vx, max_vy, max_wz
     assert {p.estop_via for p in plan_soak(4, 120)} == {"service", "topic_reliable", "topic_best_effort"}
+
+
+def test_every_lifetime_asks_for_a_snapshot_now_and_then() -> None:
+    for p in [*plan_soak(9, 30), lifetime(9, 0, MIN_LIFETIME_S)]:
+        times = [a.at_s for a in p.snapshots]
+        assert times and {a.kind for a in p.snapshots} == {"snapshot"}
+        assert FIRST_SNAPSHOT_S[0] <= times[0] <= FIRST_SNAPSHOT_S[1] and times[-1] < p.length_s - 1.0
+        for a, b in itertools.pairwise(times):
+            assert SNAPSHOT_GAP_S[0] - 0.01 <= b - a <= SNAPSHOT_GAP_S[1] + 0.01
+    assert len(lifetime(9, 0, 300.0).snapshots) in (1, 2)
