@@ -60,20 +60,16 @@ class LowCmdRelay:
     def submit(self, names: Sequence[str], q: Sequence[float], dq: Sequence[float], tau: Sequence[float],
                kp: Sequence[float], kd: Sequence[float]) -> str | None:
         """Forward one joint command; returns an error text if refused."""
-        self._events.count("lowcmd_received")
-        try:
-            frame = validate_lowcmd(names, q, dq, tau, kp, kd)
-        except JointCommandError as exc:
-            self._events.count("lowcmd_rejected")
-            self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")
-            return str(exc)
-        return self.submit_frame(frame)
+        return self._submit_checked(lambda: validate_lowcmd(names, q, dq, tau, kp, kd))
 
     def submit_block(self, names: Sequence[str], block: np.ndarray) -> str | None:
         """``submit`` with the five columns as one 5 x n array (q, dq, tau, kp, kd): the same checks, in numpy."""
+        return self._submit_checked(lambda: validate_lowcmd_block(names, block))
+
+    def _submit_checked(self, check: Callable[[], JointFrame]) -> str | None:
         self._events.count("lowcmd_received")
         try:
-            frame = validate_lowcmd_block(names, block)
+            frame = check()
         except JointCommandError as exc:
             self._events.count("lowcmd_rejected")
             self._events.log("warn", "lowcmd_rejected", f"lowcmd rejected: {exc}")

@@ -20,6 +20,21 @@ function fitCanvas(c, fallbackHeight) {
   return { g, w, h };
 }
 
+// The legend's keys in as many rows as the width needs (a phone, a narrow card); pad.t is set below them.
+function layoutLegend(g, series, w, pad) {
+  const keys = [];
+  let lx = pad.l;
+  let ly = 11;
+  for (const { label, color } of series) {
+    const width = g.measureText(label).width + 14;
+    if (lx > pad.l && lx + width > w - pad.r) { lx = pad.l; ly += 13; }
+    keys.push({ label, color, lx, ly });
+    lx += width + 16;
+  }
+  pad.t = ly + 7;
+  return keys;
+}
+
 class StripChart {
   constructor(canvas, { series, unit, windowS = 30, minRange = 0.2, zeroBased = false }) {
     this.canvas = canvas;
@@ -46,18 +61,8 @@ class StripChart {
     if (!isFinite(lo)) { lo = 0; hi = this.minRange; }
     if (this.zeroBased) lo = Math.min(lo, 0);
     if (hi - lo < this.minRange) hi = lo + this.minRange;
-    // the legend first, in as many rows as the width needs (a phone, a narrow card)
     const pad = { l: 42, r: 8, t: 0, b: 16 };
-    const keys = [];
-    let lx = pad.l;
-    let ly = 11;
-    for (const { label, color } of this.series) {
-      const width = g.measureText(label).width + 14;
-      if (lx > pad.l && lx + width > w - pad.r) { lx = pad.l; ly += 13; }
-      keys.push({ label, color, lx, ly });
-      lx += width + 16;
-    }
-    pad.t = ly + 7;
+    const keys = layoutLegend(g, this.series, w, pad);
     const x = (t) => pad.l + ((t - start) / this.windowS) * (w - pad.l - pad.r);
     const y = (v) => h - pad.b - ((v - lo) / (hi - lo)) * (h - pad.t - pad.b);
     g.strokeStyle = "#2a323c";
@@ -188,16 +193,7 @@ class IncidentChart {
     if (hi - lo < this.minRange) hi = lo + this.minRange;
     const band = colors && incident.modes && incident.modes.length ? 13 : 0;
     const pad = { l: 42, r: 8, t: 0, b: 28 + band };
-    const keys = [];
-    let lx = pad.l;
-    let ly = 11;
-    for (const { label, color } of this.series) {
-      const width = g.measureText(label).width + 14;
-      if (lx > pad.l && lx + width > w - pad.r) { lx = pad.l; ly += 13; }
-      keys.push({ label, color, lx, ly });
-      lx += width + 16;
-    }
-    pad.t = ly + 7;
+    const keys = layoutLegend(g, this.series, w, pad);
     const x = (t) => pad.l + ((Math.min(end, Math.max(start, t)) - start) / (end - start)) * (w - pad.l - pad.r);
     const y = (v) => h - pad.b - ((v - lo) / (hi - lo)) * (h - pad.t - pad.b);
     g.strokeStyle = "#2a323c";
