@@ -44,6 +44,8 @@ from g1_mode_manager.relay.incident_folder import IncidentFolder
 ESTOP_VIA_S: Final = 2.0
 #: While the folder cannot be written, it is looked at again this often, s.
 RECHECK_S: Final = 10.0
+#: The ring drops what is older than its window this often (the recorder's thread wakes for it), s.
+PRUNE_PERIOD_S: Final = 1.0
 _STOPS: Final = {Mode.EMERGENCY: Cause.EMERGENCY, Mode.FAULT: Cause.FAULT}
 
 
@@ -220,6 +222,7 @@ class FlightRecorder:
     # --- the writer thread -----------------------------------------------------------------------
     def _run(self) -> None:
         self._set_error(self._folder.check())
+        checked_at = self._clock()
         while True:
             self._wake.wait(self._wait_s())
             self._wake.clear()
@@ -237,15 +240,24 @@ class FlightRecorder:
                     due.done.set()
             if stopping:
                 return
-            if not ready and self.report().error:
+            if not ready and self.report().error and self._clock() - checked_at >= RECHECK_S:
                 self._set_error(self._folder.check())
+                checked_at = self._clock()
+            self._prune()
 
-    def _wait_s(self) -> float | None:
+    def _wait_s(self) -> float:
         with self._lock:
-            stop, error = self._stop_due, self._report.error
-        if stop is not None:
-            return max(0.0, stop.at - self._clock())
-        return RECHECK_S if error else None
+            stop = self._stop_due
+        return PRUNE_PERIOD_S if stop is None else min(PRUNE_PERIOD_S, max(0.0, stop.at - self._clock()))
+
+    def _prune(self) -> None:
+        """What no incident can hold any more goes: older than a window before now (a snapshot's), and before a
+        pending stop's window (its file holds the window before its first stop however long later stops put it
+        off), with a period's slack."""
+        with self._lock:
+            stop = self._stop_due
+        since = self._clock() if stop is None else min(self._clock(), stop.began)
+        self.ring.prune(since - self.config.window_s - 2.0 * PRUNE_PERIOD_S)
 
     def _write(self, due: _Due) -> tuple[bool, str]:
         end = self._clock()

@@ -77,6 +77,25 @@ def test_the_window_keeps_what_came_in_it_and_the_mode_it_began_in() -> None:
     assert entries[1][2].readings.tilt_rad == 0.2
 
 
+def test_prune_drops_what_came_before_the_cut_and_keeps_the_mode_the_window_began_in() -> None:
+    clock = FakeClock(100.0)
+    ring = FlightRing(caps_for(600.0), clock)  # caps far above what a slow load fills: only the cut limits it
+    ring.add(_status(Mode.IDLE, 1))
+    clock.advance(1.0)
+    ring.add(_status(Mode.HIGH_LEVEL, 2))  # 101: the last status before the cut
+    for _ in range(50):  # 101.0 to 109.8
+        ring.add(_body(0.1))
+        clock.advance(0.18)
+    clock.advance(111.0 - clock())
+    ring.add(_body(0.2))  # 111
+    assert ring.prune(110.0) == 1 + 50
+    assert ring.counts()[Kind.STATUS] == 1 and ring.counts()[Kind.BODY] == 1
+    entries = ring.entries(110.0, clock())
+    assert [type(e[2]).__name__ for e in entries] == ["StatusChange", "BodyStep"]
+    assert entries[0][2].status.mode is Mode.HIGH_LEVEL and entries[1][2].readings.tilt_rad == 0.2
+    assert ring.prune(110.0) == 0
+
+
 def test_entries_come_in_the_order_they_were_added_across_kinds() -> None:
     clock = FakeClock()
     ring = FlightRing(caps_for(10.0), clock)

@@ -11,9 +11,10 @@ from mcap.reader import make_reader
 
 from g1_mode_manager.core.body.readings import BodyReadings
 from g1_mode_manager.core.modes import Mode
+from g1_mode_manager.core.recorder.events import Kind
 from g1_mode_manager.core.recorder.incidents import Cause, list_incidents
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.relay.flight_recorder import FlightRecorder, RecorderConfig
+from g1_mode_manager.relay.flight_recorder import PRUNE_PERIOD_S, FlightRecorder, RecorderConfig
 from support.mode_manager import wait_until
 
 VERDICTS = ("ok",) * 10
@@ -101,6 +102,30 @@ def test_a_recorder_turned_off_keeps_nothing_writes_nothing_and_refuses_a_snapsh
     assert list_incidents(tmp_path) == [] and not any(tmp_path.iterdir())
     assert not any(recorder.ring.counts().values())
     assert recorder.report().enabled is False
+
+
+def test_the_recorder_keeps_a_window_and_no_more_however_large_its_caps(tmp_path: Path) -> None:
+    """The caps are sized for each kind's busiest rate: a slow load would fill them for minutes. The recorder's
+    thread drops what no incident can hold any more, within a period of it."""
+    now = [1000.0]
+    recorder = FlightRecorder(RecorderConfig(tmp_path, enabled=True, window_s=5.0, after_s=0.3, max_files=50,
+                                             max_bytes=1 << 30, frame_rate_hz=10.0, body_rate_hz=100.0,
+                                             node="/g1_mode_manager"),
+                              log=lambda level, text: None, clock=lambda: now[0])
+    recorder.start()
+    try:
+        recorder.on_status(_status(Mode.HIGH_LEVEL, 1))
+        for i in range(20):
+            recorder.note("info", f"old {i}")
+        now[0] += 5.0 + 2.0 * PRUNE_PERIOD_S + 1.0  # older than a window and the slack
+        recorder.note("info", "new")
+        assert wait_until(lambda: recorder.ring.counts()[Kind.NOTE] == 1, 3.0 * PRUNE_PERIOD_S + 2.0)
+        assert recorder.ring.counts()[Kind.STATUS] == 1  # the mode the window begins in stays
+        ok, path = recorder.snapshot()
+    finally:
+        recorder.stop()
+    assert ok, path
+    assert _metadata(Path(path))["mode"] == "HIGH_LEVEL"
 
 
 def test_an_unwritable_folder_is_reported_and_nothing_raises(tmp_path: Path) -> None:

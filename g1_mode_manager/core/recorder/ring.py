@@ -4,6 +4,10 @@
 ever waits for the writer or for another hook. Each kind keeps at most ``caps[kind]`` events (the oldest go
 first); ``caps_for`` sizes them for a window from the most each kind is expected to produce per second, so the
 whole window stays in memory unless a kind runs faster than that, and then only that kind's oldest go.
+
+The caps are sized for each kind's busiest rate, which an ordinary load reaches seldom: by count alone a ring
+would keep filling for minutes (a node's memory rising by megabytes long after its start). ``prune`` drops what is
+older than the window, so the ring holds the window's events and no more; the recorder's own thread calls it.
 """
 
 from __future__ import annotations
@@ -72,6 +76,19 @@ class FlightRing:
             out.extend(inside)
         out.sort(key=lambda e: (e[0], e[1]))
         return out
+
+    def prune(self, before: float) -> int:
+        """Drop the entries added before ``before`` (of each of STATE_KINDS the last one stays, as ``entries`` wants
+        it); how many went. Call it from one thread only: the hooks only append. An append that finds its kind at
+        its cap drops that kind's oldest meanwhile, so a prune racing it may take the next oldest instead: one entry
+        at the window's far edge, in a kind that runs at its cap."""
+        dropped = 0
+        for kind, ring in self._rings.items():
+            keep = 1 if kind in STATE_KINDS else 0  # a state kind's last entry before the cut says what then held
+            while len(ring) > keep and ring[keep][0] < before:
+                ring.popleft()
+                dropped += 1
+        return dropped
 
     def counts(self) -> dict[Kind, int]:
         return {kind: len(ring) for kind, ring in self._rings.items()}
