@@ -8,7 +8,14 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP, RANGE_MARGIN_RAD, JointCommandError, validate_lowcmd
+from g1_mode_manager.core.joint_commands import (
+    MAX_ABS_DQ,
+    MAX_KD,
+    MAX_KP,
+    RANGE_MARGIN_RAD,
+    JointCommandError,
+    validate_lowcmd,
+)
 from g1_mode_manager.protocol.motors import DAMPING_KD, EFFORT_LIMIT_NM, JOINT_INDEX, JOINT_NAMES, JOINT_RANGE_RAD
 
 
@@ -28,6 +35,8 @@ def reference(names, q, dq, tau, kp, kd) -> list[tuple[float, ...]]:
         cmd = (float(q[i]), float(dq[i]) if dq else 0.0, float(tau[i]) if tau else 0.0, float(kp[i]), float(kd[i]))
         if not all(math.isfinite(v) for v in cmd):
             raise JointCommandError("non-finite")
+        if abs(cmd[1]) > MAX_ABS_DQ:  # the robot's frames hold float32
+            raise JointCommandError("dq")
         low, high = JOINT_RANGE_RAD[motor]
         if not low - RANGE_MARGIN_RAD <= cmd[0] <= high + RANGE_MARGIN_RAD:
             raise JointCommandError("range")
@@ -39,7 +48,8 @@ def reference(names, q, dq, tau, kp, kd) -> list[tuple[float, ...]]:
     return frame
 
 
-edgy = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_from([0.0, -0.0, 1e-300, -1e-9]))
+edgy = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                 st.sampled_from([0.0, -0.0, 1e-300, -1e-9, MAX_ABS_DQ, -MAX_ABS_DQ, math.nextafter(MAX_ABS_DQ, math.inf)]))
 gain = st.one_of(st.floats(-1.0, 600.0), st.sampled_from([0.0, MAX_KP, MAX_KD, math.nan, math.inf, -0.0]), edgy)
 torque = st.one_of(st.floats(-140.0, 140.0), st.sampled_from([5.0, -5.0, 25.0, 88.0, 139.0, -139.0]), edgy)
 some_names = st.lists(st.sampled_from([*JOINT_NAMES, "knee", ""]), min_size=0, max_size=31)
