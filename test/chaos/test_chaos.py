@@ -50,7 +50,9 @@ from support.sim_record import SimRecord
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
-N = int(os.environ.get("G1_CHAOS_N", "30"))
+#: The suite's share (two files of 13 short scenarios, side by side, each about as long as the suite's longest other
+#: file); `make chaos` runs 100 of every length and judges the coverage.
+N = int(os.environ.get("G1_CHAOS_N", "26"))
 SEED = int(os.environ.get("G1_CHAOS_SEED", "7000"))
 SUMMARY = os.environ.get("G1_CHAOS_SUMMARY", "")
 LENGTHS = tuple(os.environ.get("G1_CHAOS_LENGTHS", "short").split(","))
