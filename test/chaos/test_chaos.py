@@ -50,9 +50,7 @@ from support.sim_record import SimRecord
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
-#: The suite's share (two files of 13 short scenarios, side by side, each about as long as the suite's longest other
-#: file); `make chaos` runs 100 of every length and judges the coverage.
-N = int(os.environ.get("G1_CHAOS_N", "26"))
+N = int(os.environ.get("G1_CHAOS_N", "30"))
 SEED = int(os.environ.get("G1_CHAOS_SEED", "7000"))
 SUMMARY = os.environ.get("G1_CHAOS_SUMMARY", "")
 LENGTHS = tuple(os.environ.get("G1_CHAOS_LENGTHS", "short").split(","))
