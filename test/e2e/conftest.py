@@ -19,6 +19,11 @@ from support.sim_bridge import SimStatus, shared_sim_status, start_sim_bridge
 from support.sim_record import SimRecord
 
 
+def _yaw(quat_wxyz: Sequence[float]) -> float:
+    w, x, y, z = quat_wxyz
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
 @dataclass
 class Stack:
     """The simulated G1, the node under test, a ROS client and the sim's status service."""
@@ -113,6 +118,32 @@ class Stack:
                 walked = math.hypot(x - x0, y - y0)
                 if walked >= metres or status["sim_time"] >= end:
                     return walked
+                next_look = time.monotonic() + 0.2
+            pub.publish(msg)
+            time.sleep(0.05)
+
+    def turn_by(self, wz: float, degrees: float) -> float:
+        """Turn on the spot at ``wz`` on cmd_vel (20 Hz) until the robot's heading (the sim's base) has turned
+        ``degrees`` the way ``wz`` asks, for at most TURN_SIM_S of sim time; returns how far it turned, degrees (the
+        heading's steps summed, so a turn past 180 degrees reads as one). Bounded by the robot's time, as
+        walk_forward: a teleop stalled on a loaded machine stops the turn for a while, not the test."""
+        from support.timing import TURN_SIM_S
+
+        pub = self.cmd_vel_publisher()
+        msg = Twist()
+        msg.angular.z = wz
+        status = self.sim.get()
+        heading, turned = _yaw(status["base"]["quaternion"]), 0.0
+        end = status["sim_time"] + TURN_SIM_S
+        next_look = 0.0
+        while True:
+            if time.monotonic() >= next_look:
+                status = self.sim.get()
+                now = _yaw(status["base"]["quaternion"])
+                turned += math.copysign(1.0, wz) * math.remainder(now - heading, 2 * math.pi)
+                heading = now
+                if math.degrees(turned) >= degrees or status["sim_time"] >= end:
+                    return math.degrees(turned)
                 next_look = time.monotonic() + 0.2
             pub.publish(msg)
             time.sleep(0.05)

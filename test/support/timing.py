@@ -93,6 +93,8 @@ BODY_SAMPLE_S: Final = BODY_PERIOD_S
 #: Sim time a test drives the robot at most to walk its distance (WALKS_M at 0.5 m/s: ~1.5 s with the gait's start).
 #: A teleop publisher stalled on a loaded machine stops the walk (the node's watchdog) until it publishes again.
 WALK_SIM_S: Final = margin(8.0)
+#: The most sim time ``Stack.turn_by`` turns for: 90 degrees at 0.5 rad/s is about 3 s of a perfect turn.
+TURN_SIM_S: Final = margin(8.0)
 #: An SDK client's timeout in a test of a robot that drops or delays its answer (the robot at fault is told apart
 #: on the sim's record, not by the wait): long enough for a loaded machine to deliver the request, which the
 #: record must show received before the verdict.
