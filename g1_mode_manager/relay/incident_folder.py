@@ -1,8 +1,10 @@
 """The incident folder: whether it can be written, one incident written into it whole, the oldest removed.
 
-Synchronous, and only ever called from the flight recorder's own thread. A file goes out under a ``.part`` name
-and is renamed once synced, so a listing (``g1ctl incidents``) never shows half a file; after each write the
-oldest incidents go until at most ``max_files`` remain, together at most ``max_bytes``.
+Synchronous, and only ever called from the flight recorder's own thread; the file itself is written by a forked
+child (forked_write: the conversion's memory never lands in the node). A file goes out under a ``.part`` name and
+is renamed once synced, by the child, so a listing (``g1ctl incidents``) never shows half a file and a node that
+stops meanwhile still leaves the whole one; after each write the oldest incidents go until at most ``max_files``
+remain, together at most ``max_bytes``.
 """
 
 from __future__ import annotations
@@ -10,10 +12,15 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Final
 
 from g1_mode_manager.core.recorder.incidents import PARTIAL, SUFFIX, Cause, file_name, list_incidents, to_remove
 from g1_mode_manager.core.recorder.ring import Entry
+from g1_mode_manager.relay.forked_write import in_child
 from g1_mode_manager.relay.incident_writer import write_incident
+
+#: The longest an incident's child may take to write it (a full window takes about a second), s.
+WRITE_TIMEOUT_S: Final = 30.0
 
 
 class IncidentFolder:
@@ -45,9 +52,14 @@ class IncidentFolder:
             began += 0.001
             path = self.folder / file_name(began, cause)
         part = path.with_name(path.name + PARTIAL)
-        try:
+
+        def write() -> int:
             count = write_incident(part, entries, metadata, to_unix=to_unix)
             os.replace(part, path)
+            return count
+
+        try:
+            count = in_child(write, WRITE_TIMEOUT_S)
         except BaseException:
             part.unlink(missing_ok=True)
             raise

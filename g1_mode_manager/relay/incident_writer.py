@@ -5,8 +5,9 @@ Typed messages where a standard one fits (std_msgs/Float64 for each body reading
 drivers' commands, the Moves and the robot's odometry, this package's JointCommand for frames); std_msgs/String
 holding one JSON object where none does (the mode machine, robot calls, notes), on the channels that
 core/recorder/channels.py names. Each message's log time is when the node saw the
-thing; a robot call's answer has its request's time as publish time. Runs on the recorder's thread, never on a
-hook's, and lets other threads have the GIL every YIELD_EVERY messages.
+thing; a robot call's answer has its request's time as publish time. Runs in the child the recorder forks for the file
+(forked_write), never on a hook's thread; run in a process with other threads, it lets them have the GIL every
+YIELD_EVERY messages.
 """
 
 from __future__ import annotations
