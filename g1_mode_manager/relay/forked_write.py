@@ -9,7 +9,8 @@ conversion, and the conversion holds no GIL the node's threads wait for.
 
 The child runs only the write it is given and ``os._exit``: no log line, no print (a lock another thread held at
 the fork would stay held in the child), no atexit handler, nothing of DDS. The parent waits for its answer at
-most ``timeout_s`` and kills it after that.
+most ``timeout_s`` and kills it after that. Where no child can be made (the system refuses the fork), the write runs
+here: an incident is worth more than the memory it leaves behind.
 """
 
 from __future__ import annotations
@@ -31,15 +32,15 @@ class ChildWriteError(OSError):
 
 def in_child(write: Callable[[], int], timeout_s: float) -> int:
     """Run ``write`` in a forked child and return what it returned (a count). Raises ChildWriteError with the child's
-    exception, TimeoutError (the child killed) if no answer came within ``timeout_s``, OSError if no child could be
-    made."""
+    exception (or how it ended without one), TimeoutError (the child killed) if no answer came within ``timeout_s``.
+    If no child can be made, runs ``write`` in this process."""
     read_fd, write_fd = os.pipe()
     try:
         pid = os.fork()
     except OSError:
         os.close(read_fd)
         os.close(write_fd)
-        raise
+        return write()
     if pid == 0:  # the child: only this thread goes on; it never returns from here
         code = 1
         try:
@@ -59,10 +60,12 @@ def in_child(write: Callable[[], int], timeout_s: float) -> int:
     if answer is None:
         _kill(pid)
         raise TimeoutError(f"the incident write did not end within {timeout_s:g} s (its process was killed)")
-    os.waitpid(pid, 0)
+    _, status = os.waitpid(pid, 0)
     if answer.startswith("ok "):
         return int(answer[3:])
-    raise ChildWriteError(answer.removeprefix("error ") or "the incident write ended without an answer")
+    if answer.startswith("error "):
+        raise ChildWriteError(answer.removeprefix("error "))
+    raise ChildWriteError(f"the incident write's process ended without an answer (exit {os.waitstatus_to_exitcode(status)})")
 
 
 def _read_answer(fd: int, deadline: float) -> str | None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import time
 
 import pytest
@@ -60,3 +61,20 @@ def test_a_child_that_does_not_answer_in_time_is_killed(tmp_path) -> None:
     assert time.monotonic() - started < 10.0
     with pytest.raises(ProcessLookupError):  # killed and reaped
         os.kill(int((tmp_path / "pid").read_text()), 0)
+
+
+def test_a_child_that_dies_without_answering_is_an_error_with_its_exit() -> None:
+    def write() -> int:
+        os.kill(os.getpid(), signal.SIGKILL)
+        return 0
+
+    with pytest.raises(ChildWriteError, match=r"without an answer \(exit -9\)"):
+        in_child(write, 10.0)
+
+
+def test_where_no_child_can_be_made_the_write_runs_here(monkeypatch) -> None:
+    def refuse() -> int:
+        raise BlockingIOError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(os, "fork", refuse)
+    assert in_child(os.getpid, 10.0) == os.getpid()
