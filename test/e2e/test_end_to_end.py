@@ -16,7 +16,7 @@ from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.topic_qos import MODE_QOS
 from support.mode_manager import wait_until
 from support.sim_record import is_damp, requests, velocity_of
-from support.timing import QUIET_WINDOW_S, RECORD_WAIT_S, STEP_HELD_S
+from support.timing import QUIET_WINDOW_S, RECORD_WAIT_S, STEP_HELD_S, WATCHDOG_STOP_S
 
 pytestmark = [pytest.mark.e2e, pytest.mark.sim]
 
@@ -42,18 +42,22 @@ def test_walks_on_cmd_vel_and_watchdog_stops_it(shared_stack_factory) -> None:
     x1, y1, z1 = after["base"]["position"]
     walked = math.hypot(x1 - x0, y1 - y0)
     sim_s = after["sim_time"] - before["sim_time"]  # a loaded machine runs the sim below real time
-    stopped = wait_until(lambda: stack.horizontal_speed() < 0.1, 3.0, period_s=0.01)
+    # at rest once the commands stop: how long the robot takes to stop is the sim's, in its own time, which a loaded
+    # machine slows against the wall clock; the node's part is the StopMove below
+    stopped = wait_until(lambda: stack.horizontal_speed() < 0.1, RECORD_WAIT_S, period_s=0.01)
     stop_after = time.monotonic() - last_cmd
     print(f"cmd_vel 0.5 m/s for 4 s ({sim_s:.2f} s of sim time): walked {walked:.2f} m; stopped {stop_after:.2f} s "
           "after the last cmd_vel")
     assert walked >= 0.3 * sim_s and z1 > 0.6  # 0.5 m/s after the limiter's ramp and the first steps
-    assert stopped and stop_after <= 1.5
+    assert stopped, "the robot did not come to rest after the cmd_vel stopped"
     assert stack.requests(SPORT, api_ids.LOCO_SET_VELOCITY) > 30  # the ramp at 20 Hz, then the 10 Hz keep-alive
     # the watchdog's own StopMove, on the robot's record (the robot would also stop when its 1 s Move lease
-    # ran out: that alone proves nothing about the watchdog)
-    stops = [e["t"] - last_cmd for e in requests(stack.record.events(since=last_cmd), api_ids.LOCO_SET_VELOCITY)
-             if velocity_of(e) == [0.0, 0.0, 0.0]]
-    assert stops and stops[0] <= 0.5 + 0.3, f"no StopMove within the watchdog timeout: {stops}"
+    # ran out: that alone proves nothing about the watchdog), and no Move after it
+    moves = requests(stack.record.events(since=last_cmd), api_ids.LOCO_SET_VELOCITY)
+    stops = [e["t"] - last_cmd for e in moves if velocity_of(e) == [0.0, 0.0, 0.0]]
+    assert stops and stops[0] <= WATCHDOG_STOP_S, f"no StopMove within the watchdog timeout: {stops}"
+    assert all(velocity_of(e) == [0.0, 0.0, 0.0] for e in moves if e["t"] - last_cmd >= stops[0]), \
+        "a Move reached the robot after the watchdog's StopMove"
 
 
 def test_cmd_vel_does_not_reach_the_robot_in_idle_or_low_level(shared_stack_factory) -> None:

@@ -121,8 +121,8 @@ def test_the_teleop_walks_and_turns_the_robot_under_the_nodes_policy(shared_stac
     walked = stack.walk_forward(0.7, 2.0)  # under the suite's load the loop's late ticks slow the gait
     print(f"walked {walked:.2f} m under the policy; the loop's last fault: {seen[-1].last_fault!r}")
     assert walked >= 2.0, f"walked only {walked:.2f} m"
-    # until 90 degrees, at 0.5 rad/s: under the suite's load the loop's late ticks toppled it at 1 rad/s, and once at
-    # 0.7 rad/s 50 degrees into a fixed 4 s turn (about 160 degrees asked)
+    # until 90 degrees, at 0.5 rad/s: under the suite's load the loop's late ticks toppled it in faster and longer
+    # fixed turns (docs/figures.md)
     turned = stack.turn_by(0.5, 90.0)
     print(f"turned {turned:.0f} degrees under the policy")
     stack.drive_sim_time(0.0, 1.0)

@@ -93,6 +93,9 @@ BODY_SAMPLE_S: Final = BODY_PERIOD_S
 #: Sim time a test drives the robot at most to walk its distance (WALKS_M at 0.5 m/s: ~1.5 s with the gait's start).
 #: A teleop publisher stalled on a loaded machine stops the walk (the node's watchdog) until it publishes again.
 WALK_SIM_S: Final = margin(8.0)
+#: The last cmd_vel -> the watchdog's StopMove on the robot: cmd_vel_timeout_s (0.5 s), the watchdog's check and one
+#: Move's delivery, with room for a loaded machine.
+WATCHDOG_STOP_S: Final = margin(0.8)
 #: The most sim time ``Stack.turn_by`` turns for: 90 degrees at 0.5 rad/s is about 3 s of a perfect turn.
 TURN_SIM_S: Final = margin(8.0)
 #: An SDK client's timeout in a test of a robot that drops or delays its answer (the robot at fault is told apart
