@@ -98,25 +98,30 @@ class Stack:
             pub.publish(msg)
             time.sleep(1.0 / rate_hz)
 
-    def walk_forward(self, vx: float, metres: float) -> float:
+    def walk_forward(self, vx: float, metres: float, within_sim_s: float | None = None) -> float:
         """Drive forward at ``vx`` on cmd_vel (20 Hz) until the robot is ``metres`` from where it stood (the sim's
-        base position), for at most WALK_SIM_S of sim time; returns how far it walked. A teleop stalled on a loaded
-        machine stops the walk (the node's watchdog) for a while: a fixed drive time would then fall short."""
+        base position), for at most ``within_sim_s`` (WALK_SIM_S unless given) of sim time; returns how far it
+        walked. A teleop stalled on a loaded machine stops the walk (the node's watchdog) for a while: a fixed drive
+        time would then fall short."""
         from support.timing import WALK_SIM_S
 
+        within_sim_s = WALK_SIM_S if within_sim_s is None else within_sim_s
         pub = self.cmd_vel_publisher()
         msg = Twist()
         msg.linear.x = vx
         status = self.sim.get()
         x0, y0, _ = status["base"]["position"]
-        end = status["sim_time"] + WALK_SIM_S
+        t0 = status["sim_time"]
         next_look = 0.0
         while True:
             if time.monotonic() >= next_look:  # the sim's status every 0.2 s, as drive_sim_time reads it
                 status = self.sim.get()
                 x, y, _ = status["base"]["position"]
                 walked = math.hypot(x - x0, y - y0)
-                if walked >= metres or status["sim_time"] >= end:
+                took = status["sim_time"] - t0
+                if walked >= metres or took >= within_sim_s:
+                    print(f"walk_forward: {walked:.2f} of {metres} m in {took:.1f} s of sim time "
+                          f"(at most {within_sim_s:.1f})")
                     return walked
                 next_look = time.monotonic() + 0.2
             pub.publish(msg)
