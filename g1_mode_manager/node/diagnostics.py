@@ -144,5 +144,6 @@ def recorder_status(report: RecorderReport, hardware_id: str) -> DiagnosticStatu
         st.message = (f"last incident: {report.last_file} ({report.last_cause})" if report.last_file
                       else "recording; no incident written yet")
     st.values = [_kv("folder", report.folder), _kv("last_file", report.last_file), _kv("last_cause", report.last_cause),
-                 _kv("pending", report.pending), _kv("written", report.written), _kv("error", report.error)]
+                 _kv("pending", report.pending), _kv("written", report.written), _kv("error", report.error),
+                 _kv("kept_events", report.kept_events), _kv("kept_kb", f"{report.kept_bytes / 1024:.0f}")]
     return st

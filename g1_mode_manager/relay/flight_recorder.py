@@ -75,6 +75,8 @@ class RecorderReport:
     last_cause: str = ""
     pending: str = ""  # a stop whose incident waits for the rest of its after-window
     written: int = 0
+    kept_events: int = 0  # in the ring after its last prune
+    kept_bytes: int = 0  # ... and what they take (FlightRing.approx_bytes)
 
 
 @dataclass
@@ -258,6 +260,9 @@ class FlightRecorder:
             stop = self._stop_due
         since = self._clock() if stop is None else min(self._clock(), stop.began)
         self.ring.prune(since - self.config.window_s - 2.0 * PRUNE_PERIOD_S)
+        kept, kept_bytes = sum(self.ring.counts().values()), self.ring.approx_bytes()
+        with self._lock:
+            self._report = replace(self._report, kept_events=kept, kept_bytes=kept_bytes)
 
     def _write(self, due: _Due) -> tuple[bool, str]:
         end = self._clock()

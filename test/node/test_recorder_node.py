@@ -52,6 +52,8 @@ def test_an_estops_steps_are_in_its_incident_and_diagnostics_name_it(folder: Pat
         [incident] = list_incidents(folder)
         assert incident.cause is Cause.EMERGENCY
         assert wait_until(lambda: any(incident.path.name in s.message for s in _recorder_statuses(harness)), 5.0)
+        kept = {v.key: v.value for v in _recorder_statuses(harness)[-1].values}
+        assert int(kept["kept_events"]) > 0 and int(kept["kept_kb"]) > 0, kept  # the e-stop's own events at least
     finally:
         harness.close()
     steps = [(e["topic"].rsplit("/", 1)[1], e.get("step") or e.get("verb") or e["to"], e.get("phase", ""))

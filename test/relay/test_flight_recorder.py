@@ -121,6 +121,9 @@ def test_the_recorder_keeps_a_window_and_no_more_however_large_its_caps(tmp_path
         recorder.note("info", "new")
         assert wait_until(lambda: recorder.ring.counts()[Kind.NOTE] == 1, 3.0 * PRUNE_PERIOD_S + 2.0)
         assert recorder.ring.counts()[Kind.STATUS] == 1  # the mode the window begins in stays
+        # what /diagnostics says it keeps: the pruned ring (a note and the status), by the ring's own count
+        assert wait_until(lambda: recorder.report().kept_events == 2, 3.0 * PRUNE_PERIOD_S + 2.0), recorder.report()
+        assert recorder.report().kept_bytes == recorder.ring.approx_bytes() > 0
         ok, path = recorder.snapshot()
     finally:
         recorder.stop()
