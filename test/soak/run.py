@@ -37,6 +37,7 @@ from support.sim_bridge import shared_sim_status, start_sim_bridge
 from support.sim_record import SimRecord, damped, is_damp, requests
 
 NODE = "/g1_mode_manager"
+RECORDER_STATUS = "g1_mode_manager: recorder"  # its /diagnostics status: what the ring keeps
 ESTOP_TIMEOUT_S = 40.0  # the e-stop's bound (estop_timeout_s 10 s + a call) with room for a starved machine
 AFTER_ESTOP_S = 2.0  # the streams go on this long after the e-stop: none of it may reach the robot
 SETTLE_S = 12.0  # after the e-stop the robot must be seen damped within this (as in the chaos suite)
@@ -87,9 +88,12 @@ class Soak:
         self.claims = Claims()
         self.load_stop = threading.Event()
         self.t_estop_wall = 0.0
+        #: the recorder's last kept events and kB on /diagnostics (once a second), and the most kB this lifetime
+        self._ring: tuple[int, float, float] = (0, 0.0, 0.0)
 
     # --- the parts, made once ---------------------------------------------------------------------------------
     def start(self) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray
         from g1_mode_manager_msgs.msg import Mode
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from std_msgs.msg import Bool
@@ -108,6 +112,7 @@ class Soak:
         self.stack = Stack(self.bridge, None, self.ros, self.sim, None)  # type: ignore[arg-type]  # node: per lifetime
         node = self.ros.node
         node.create_subscription(Mode, self.stack.name("mode"), self._on_mode, MODE_QOS)
+        node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.estop_pubs = {"topic_reliable": node.create_publisher(Bool, "/estop", QoSProfile(depth=10)),
                            "topic_best_effort": node.create_publisher(
                                Bool, "/estop", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))}
@@ -118,6 +123,16 @@ class Soak:
         claims = self.claims
         with claims.lock:
             claims.modes.append((time.monotonic(), msg))
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        for st in msg.status:
+            if st.name == RECORDER_STATUS:
+                values = {v.key: v.value for v in st.values}
+                kb = float(values.get("kept_kb", 0.0))
+                self._ring = (int(values.get("kept_events", 0)), kb, max(kb, self._ring[2]))
+
+    def _ring_kept(self) -> tuple[int, float, float]:
+        return self._ring
 
     def _last_mode(self) -> int | None:
         with self.claims.lock:
@@ -148,12 +163,14 @@ class Soak:
         self.stack.set_faults(NO_FAULTS)  # the reset cleared the robot's; the parameter must say so too
         self.claims = Claims()
         self.recorder.lifetime_starts()
+        self._ring = (0, 0.0, 0.0)  # the last node's figures are not this one's
         self.node = node = start_mode_manager(self.sdk_domain, *self.recorder.node_params())
         t_ready = time.monotonic()
         self.stack.node, self.stack.record = node, record
         sampler = Sampler(self.log, lifetime=p.index, pid=node.proc.pid, bridge_pid=self.bridge.proc.pid,
                           t_ready=t_ready, t_run0=self.t0, period_s=self.args.sample_s, until_age_s=p.length_s,
-                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name)
+                          ros_graph=self.ros.node, cyclone=self.cyclone, sim=self.sim, mode=self._last_mode_name,
+                          ring=self._ring_kept)
         sampler.start()  # before waiting for discovery: its first sample is the node at its ready line
         self.ros.wait_node_answers(NODE)
         bad: list[str] = []

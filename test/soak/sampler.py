@@ -13,7 +13,8 @@ from soak import probes
 #: The CSV's columns: when, which node, its mode, then the figures (docs/soak.md says what each counts).
 COLUMNS = ("run_s", "lifetime", "age_s", "pid", "mode", "rss_kb", "rss_anon_kb", "threads", "fds", "ros_nodes",
            "ros_pubs", "ros_subs", "ros_services", "ros_clients", "sdk_participants", "sdk_node_writers",
-           "sdk_node_readers", "sim_matched_readers", "sim_rss_kb")
+           "sdk_node_readers", "sim_matched_readers", "sim_rss_kb", "ring_events", "ring_kb",
+           "ring_peak_kb", "rss_net_kb")
 
 
 class SampleLog:
@@ -41,10 +42,11 @@ class Sampler:
 
     def __init__(self, log: SampleLog, *, lifetime: int, pid: int, bridge_pid: int, t_ready: float, t_run0: float,
                  period_s: float, until_age_s: float, ros_graph: Any, cyclone: probes.CycloneGraph, sim: Any,
-                 mode: Any) -> None:
+                 mode: Any, ring: Any) -> None:
         self._log, self._lifetime, self._pid, self._bridge_pid = log, lifetime, pid, bridge_pid
         self._t_ready, self._t_run0, self._period, self._until = t_ready, t_run0, period_s, until_age_s
         self._ros_graph, self._cyclone, self._sim, self._mode = ros_graph, cyclone, sim, mode
+        self._ring = ring  # () -> the recorder's last (kept_events, kept_kb) on /diagnostics, and the most kept_kb
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="sampler", daemon=True)
         self.errors: list[str] = []
@@ -76,4 +78,6 @@ class Sampler:
         row |= self._cyclone.figures(self._pid)
         row["sim_matched_readers"] = probes.sim_matched_readers(self._sim.get())
         row["sim_rss_kb"] = probes.rss_kb(self._bridge_pid)
+        row["ring_events"], row["ring_kb"], row["ring_peak_kb"] = self._ring()
+        row["rss_net_kb"] = row["rss_kb"] - round(row["ring_peak_kb"])  # what soak.growth judges
         return row

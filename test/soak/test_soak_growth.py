@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from soak.growth import Growth, across_lifetimes, judge_growth, late_minus_early, within_lifetime
+from soak.growth import THRESHOLDS, Growth, across_lifetimes, judge_growth, late_minus_early, within_lifetime
 
 AGES = [30.0 * k for k in range(11)]  # 0..300 s
 
@@ -73,3 +73,20 @@ def test_a_count_that_outlives_its_node_grows_across_lifetimes() -> None:
     grew = judge_growth(rows, {"sim_matched_readers": 0}, warmup_s=60)
     assert grew == [Growth("sim_matched_readers", "across lifetimes", 4, 0)]
     assert grew[0].text() == "sim_matched_readers +4 across lifetimes"
+
+
+def test_memory_is_judged_less_the_most_the_ring_has_held() -> None:
+    """A busier window late in a lifetime raises the RSS by what the ring then holds: not growth. A leak beside it
+    still is."""
+
+    def row(age: float, leak_kb_s: float) -> dict:
+        ring_peak = 1_500.0 if age < 200 else 2_500.0  # a busier window at 200 s
+        rss = 90_000 + ring_peak + leak_kb_s * age
+        return {"lifetime": 0, "age_s": age, "rss_kb": rss, "ring_peak_kb": ring_peak, "rss_net_kb": rss - ring_peak}
+
+    busier = [row(a, 0.0) for a in AGES]
+    memory = {"rss_net_kb": THRESHOLDS["rss_net_kb"]}
+    assert judge_growth(busier, memory, warmup_s=60) == []
+    assert within_lifetime(busier, "rss_kb", warmup_s=60) == 1_000  # the raw RSS would have read as growth
+    leaking = [row(a, 5.0) for a in AGES]
+    assert [(g.metric, g.where) for g in judge_growth(leaking, memory, warmup_s=60)] == [("rss_net_kb", "in lifetime 0")]
