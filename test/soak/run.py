@@ -4,7 +4,7 @@ the node restarted and the robot reset. Every lifetime is judged like a chaos sc
 on the sim's record of that lifetime); the node's resources are sampled at fixed ages (soak.sampler) and judged
 for growth (soak.growth). Every node writes its flight recorder's incidents into one folder, ``--out``/incidents,
 with small rotation limits, and the folder is judged after each lifetime (soak.recorder). Writes samples.csv,
-soak.svg and report.md to ``--out``; its last line is
+soak.svg, report.md and each node's log (node_<lifetime>.log) to ``--out``; its last line is
 ``soak: M minutes, V violations, growth: none|<what grew>``, and it exits non-zero on a violation or growth.
 
 Every process it starts is stopped at the end, on Ctrl-C or SIGTERM too (they run in sessions of their own, so a
@@ -207,6 +207,8 @@ class Soak:
             self.notes.append(f"lifetime {p.index}: the node exited {code} after {time.monotonic() - t_stop:.1f} s "
                               f"on SIGINT: {node.output()[-1500:]}")
         self.ros.wait_service_gone(f"{NODE}/set_mode")
+        # the node's own account beside its samples: what it did when its memory stepped
+        (self.out / f"node_{p.index}.log").write_text(node.output())
         bad += self.recorder.judge(p.index, node.output(), estop_wall=self.t_estop_wall,
                                    estop_before_stop=estop_there)
         files = self.recorder.lifetimes[-1]
