@@ -34,6 +34,9 @@ class SimRecord:
         self._events: list[Event] = []
         self._drop: Event | None = None  # the first ``drop`` read: from then on every read raises
         self._offset = self.path.stat().st_size if from_now and self.path.exists() else 0
+        # The size may fall inside a line the bridge is writing (a reader can see part of a write to a file): the
+        # rest of that line is before now, and is skipped rather than parsed as a line of its own.
+        self._partial = self._offset > 0 and _byte_before(self.path, self._offset) != b"\n"
 
     def events(self, since: float = float("-inf")) -> list[Event]:
         self._read_new()
@@ -50,6 +53,9 @@ class SimRecord:
                 if not line.endswith(b"\n"):
                     break  # a line still being written
                 self._offset += len(line)
+                if self._partial:
+                    self._partial = False
+                    continue
                 event = json.loads(line)
                 self._events.append(event)
                 if event["k"] == "drop" and self._drop is None:
@@ -61,6 +67,12 @@ class SimRecord:
         events = self.events()
         resets = [i for i, e in enumerate(events) if e["k"] == "reset"]
         return events[resets[-1] + 1 :] if resets else events
+
+
+def _byte_before(path: Path, offset: int) -> bytes:
+    with path.open("rb") as f:
+        f.seek(offset - 1)
+        return f.read(1)
 
 
 def requests(events: Iterable[Event], api_id: int | None = None, kind: str = "req") -> list[Event]:

@@ -169,3 +169,17 @@ def test_a_record_with_a_drop_cannot_be_read(tmp_path) -> None:
         record.events()
     with pytest.raises(IncompleteRecordError):
         record.events()  # and stays unreadable
+
+
+def test_a_record_read_from_now_starts_at_the_next_whole_line(tmp_path) -> None:
+    """A reader that starts while the bridge's write of a line is half seen skips the rest of that line."""
+    path = tmp_path / "record.jsonl"
+    path.write_text('{"k":"body","t":1.0,"z":0.7}\n{"k":"body","t":1.01,')  # the second line half written
+    record = SimRecord(path, from_now=True)
+    with path.open("a") as f:
+        f.write('"z":0.7}\n{"k":"req","t":1.02,"api":7101}\n')
+    assert [(e["k"], e["t"]) for e in record.events()] == [("req", 1.02)]
+    at_a_boundary = SimRecord(path, from_now=True)
+    with path.open("a") as f:
+        f.write('{"k":"body","t":1.03,"z":0.7}\n')
+    assert [e["t"] for e in at_a_boundary.events()] == [1.03]
