@@ -68,6 +68,12 @@ def _wait_request(stack, api_id: int, since: float) -> dict:
     return found[0]
 
 
+def _node_said(stack) -> str:
+    """The node's mode, fault and hand-back lines: why it handed the robot back otherwise than asked."""
+    words = ("->", "FAULT", "PASSIVE", "lowcmd", "user control", "stale")
+    return "\n".join(line for line in stack.node.output().splitlines() if any(w in line for w in words))[-3000:]
+
+
 def _internal(event: dict) -> InternalCtrl:
     return InternalCtrl(json.loads(event["p"])["data"])
 
@@ -159,7 +165,7 @@ def test_estop_while_the_exit_hand_back_is_in_flight(shared_stack_factory, targe
         str(api.LOCO_SWITCH_TO_INTERNAL_CTRL): STEP_HELD_S}}, node_params=(HELD_CALL,))
     interrupted, thread, requested = _in_background(lambda: stack.set_mode(target))
     held = _wait_request(stack, api.LOCO_SWITCH_TO_INTERNAL_CTRL, requested)
-    assert _internal(held) is hand_back, held
+    assert _internal(held) is hand_back, (held, _node_said(stack))
     t0, r = _estop_inside(stack, interrupted, thread, controller)
     ev = _judge(stack, t0, r, interrupted, held=held, may_be_user_ctrl=True)
     # the hand-back in flight landed (7111 cannot be called back): the robot went to its controller, then damping

@@ -93,8 +93,8 @@ BODY_SAMPLE_S: Final = BODY_PERIOD_S
 #: Sim time a test drives the robot at most to walk its distance (WALKS_M at 0.5 m/s: ~1.5 s with the gait's start).
 #: A teleop publisher stalled on a loaded machine stops the walk (the node's watchdog) until it publishes again.
 WALK_SIM_S: Final = margin(8.0)
-#: Sim time the walk under the node's policy may take for its distance (2 m at 0.7 m/s: 4-5 s alone or beside two
-#: busy loops). The policy acts on the samples it is given: in the loaded suite its late ticks and stale samples make
+#: Sim time the walk under the node's policy may take for its distance (2 m at 0.7 m/s took 5.1 s alone or beside
+#: three busy loops). The policy acts on the samples it is given: in the loaded suite its late ticks and stale samples make
 #: a shuffling gait that has averaged 0.2 m/s over WALK_SIM_S.
 POLICY_WALK_SIM_S: Final = margin(16.0)
 #: The last cmd_vel -> the watchdog's StopMove on the robot: cmd_vel_timeout_s (0.5 s), the watchdog's check and one
