@@ -191,4 +191,3 @@ def test_a_full_ring_of_the_default_window_takes_at_most_the_stated_bytes() -> N
     print(f"a full ring: {sum(caps.values())} events, {used / 1e6:.1f} MB, {ring.approx_bytes() / 1e6:.1f} MB counted")
     assert used <= STATED_BYTES
     assert abs(ring.approx_bytes() - used) <= 0.25 * used  # the count /diagnostics and the soak read
-
