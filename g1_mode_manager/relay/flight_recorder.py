@@ -266,14 +266,14 @@ class FlightRecorder:
 
     def _write(self, due: _Due) -> tuple[bool, str]:
         end = self._clock()
-        entries = self.ring.entries(due.began - self.config.window_s, end)
+        start = due.began - self.config.window_s
         offset = self._wall() - end  # this clock -> UNIX time, for the file's times
         metadata = {"cause": due.text, "mode": due.mode.name, "began": f"{due.began + offset:.3f}",
                     "window_s": f"{self.config.window_s:g}", "after_s": f"{end - due.began:.3f}",
                     "node": self.config.node}
         try:
-            path, count = self._folder.write(due.began + offset, due.cause, entries, metadata,
-                                             to_unix=lambda t: t + offset)
+            path, count = self._folder.write(due.began + offset, due.cause, lambda: self.ring.entries(start, end),
+                                             metadata, to_unix=lambda t: t + offset)
         except Exception as exc:  # a full disk or a folder gone: reported, never raised into the node
             why = self._folder.check() or f"{type(exc).__name__}: {exc}"  # the folder's fault, said as its check says it
             self._set_error(why)

@@ -42,10 +42,15 @@ class IncidentFolder:
             stale.unlink(missing_ok=True)
         return ""
 
-    def write(self, began: float, cause: Cause, entries: Sequence[Entry], metadata: Mapping[str, str], *,
-              to_unix: Callable[[float], float]) -> tuple[Path, int]:
-        """Write one incident (``began``: UNIX time, for its name); returns its path and message count. Raises
-        OSError when the folder cannot take it (nothing is left behind then)."""
+    def write(self, began: float, cause: Cause, window: Callable[[], Sequence[Entry]], metadata: Mapping[str, str],
+              *, to_unix: Callable[[float], float]) -> tuple[Path, int]:
+        """Write one incident (``began``: UNIX time, for its name) of the entries ``window`` gives; returns its path
+        and message count. Raises OSError when the folder cannot take it (nothing is left behind then).
+
+        ``window`` is called in the child, on its copy of the ring: the copies, the filtering and the sort of a
+        window's entries are tens of thousands of objects and a few lists of pointers, and made in the node, they
+        would raise its allocators' high-water mark at every incident (the node's RSS stepping up by about a
+        hundred kB each, docs/soak.md)."""
         self.folder.mkdir(parents=True, exist_ok=True)
         path = self.folder / file_name(began, cause)
         while path.exists():  # two incidents in one millisecond
@@ -54,7 +59,7 @@ class IncidentFolder:
         part = path.with_name(path.name + PARTIAL)
 
         def write() -> int:
-            count = write_incident(part, entries, metadata, to_unix=to_unix)
+            count = write_incident(part, window(), metadata, to_unix=to_unix)
             os.replace(part, path)
             return count
 

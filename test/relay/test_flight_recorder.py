@@ -3,6 +3,7 @@ rotated, an unwritable folder is reported and never raised, and no hook ever wai
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from pathlib import Path
@@ -70,6 +71,29 @@ def test_a_stop_writes_the_window_before_it_and_the_after_window(tmp_path: Path)
     assert report.last_file == str(incident.path) and report.pending == "" and report.error == ""
     assert recorder.warnings() == ()
     assert any("incident written" in text for _level, text in logs)
+
+
+def test_the_window_is_read_in_the_writing_child_not_in_the_node(tmp_path: Path) -> None:
+    """What a window's copy and sort allocate must never land in the node's heap: the ring is read where the file
+    is written."""
+    recorder = _recorder(tmp_path / "incidents", [])
+    read_by = tmp_path / "read_by"
+    entries = recorder.ring.entries
+
+    def entries_noting_the_reader(start: float, end: float):
+        read_by.write_text(str(os.getpid()))
+        return entries(start, end)
+
+    recorder.ring.entries = entries_noting_the_reader  # type: ignore[method-assign]
+    try:
+        recorder.on_status(_status(Mode.IDLE, 1))
+        recorder.body_step(BodyReadings(tilt_rad=0.2), VERDICTS)
+        ok, path = recorder.snapshot()
+    finally:
+        recorder.stop()
+    assert ok, path
+    assert int(read_by.read_text()) != os.getpid()
+    assert _tilts(Path(path)) == [0.2]  # the child's copy of the ring held what the node had added
 
 
 def test_a_snapshot_is_written_at_once_and_the_folder_rotated(tmp_path: Path) -> None:

@@ -29,7 +29,7 @@ def _incident(folder: Path, began: float, cause: Cause, text: str, notes: int = 
     metadata = {"cause": text, "mode": "IDLE", "began": f"{began:.3f}", "window_s": "10", "after_s": "0",
                 "node": "/g1_mode_manager"}
     path, _count = IncidentFolder(folder, max_files=10**6, max_bytes=10**12).write(
-        began, cause, ring.entries(-1.0, 1.0), metadata, to_unix=lambda t: t + began)
+        began, cause, lambda: ring.entries(-1.0, 1.0), metadata, to_unix=lambda t: t + began)
     return path
 
 

@@ -74,7 +74,8 @@ def estop_incident(folder: Path, *, began: float = EPOCH + STOP, tilts: int = 0)
     offset = began - STOP  # the fake clock -> UNIX time, the stop at ``began``
     metadata = {"cause": f"EMERGENCY from HIGH_LEVEL ({VIA})", "mode": "EMERGENCY", "began": f"{began:.3f}",
                 "window_s": f"{WINDOW_S:g}", "after_s": f"{AFTER_S:.3f}", "node": "/g1_mode_manager"}
+    end = clock()
     path, _count = IncidentFolder(folder, max_files=50, max_bytes=10**9).write(
-        began, Cause.EMERGENCY, ring.entries(STOP - WINDOW_S, clock()), metadata,
+        began, Cause.EMERGENCY, lambda: ring.entries(STOP - WINDOW_S, end), metadata,
         to_unix=lambda t: t + offset)
     return path
