@@ -9,7 +9,7 @@ SIDE_VENV ?= .venv-cyclone010
 
 MSG_SOURCES := $(shell find msg_defs -type f)
 
-.PHONY: setup run test lint bench latency body-latency policy-faults chaos exits soak clean
+.PHONY: setup run test ros-build chaos-ci lint bench latency body-latency policy-faults chaos exits soak clean
 
 setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets $(SIDE_VENV)/.stamp
 
@@ -53,7 +53,16 @@ test: setup lint
 	@# compiled ahead: a shell with PYTHONDONTWRITEBYTECODE set has each of the suite's hundreds of nodes and sims compile
 	@# the product's sources again (compileall writes whatever that says)
 	@$(BIN)/python -m compileall -q g1_mode_manager sim/g1_sim harness
-	$(BIN)/python -m pytest -n 4 --dist loadfile --no-loadscope-reorder -m "not policy_faults and not latency_only"
+	$(BIN)/python -m pytest -n 4 --dist loadfile --no-loadscope-reorder --durations=20 \
+		-m "not policy_faults and not latency_only and not ros_build"
+
+# Two checks CI runs after `make test`, alone, that the suite's two loaded cores do not carry (their CPU, about a
+# sixth of the suite's, in docs/figures.md): the ordinary ROS build of both packages with colcon, and the rest of
+# CI's fixed chaos batch (`make test` runs its seeds 7000-7011, this the 18 after them: 30 of the 33 cells aimed).
+ros-build: setup
+	$(BIN)/python -m pytest -q -m ros_build test/packaging/test_colcon_build.py
+chaos-ci: setup
+	G1_CHAOS_N=18 G1_CHAOS_SEED=7012 G1_CHAOS_PARTS=1 $(BIN)/python -m pytest -q test/chaos/test_chaos.py
 
 # Policies made to fail mid-walk on the sim (non-finite, slow, a frozen state stream), each judged on the record:
 # three more sims' worth of walking that the suite's four workers on two cores do not carry (figures in docs/).

@@ -41,15 +41,14 @@ def sdk_channels(sdk_domain: int) -> int:
 #: The slowest files, slowest first (per-file sums of --durations=0 in a four-worker run; figures in
 #: docs/figures.md); then every other file of these folders, then the rest.
 _SLOWEST_FIRST = (
-    "test/chaos/test_chaos.py",
-    "test/chaos/test_chaos_second_half.py",
     "test/e2e/test_user_ctrl.py",
     "test/e2e/test_end_to_end.py",
     "test/e2e/test_streams.py",
     "test/e2e/test_estop_truth.py",
-    "test/packaging/test_colcon_build.py",
     "test/sim/test_stock_clients.py",
     "test/e2e/test_drivers.py",
+    "test/chaos/test_chaos.py",
+    "test/chaos/test_chaos_second_half.py",
     "test/e2e/test_getup.py",
     "test/e2e/test_body.py",
     "test/e2e/test_policy.py",

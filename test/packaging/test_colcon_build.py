@@ -20,6 +20,7 @@ def _tracked_files() -> list[str]:
     return [f for f in out.stdout.splitlines() if (REPO / f).is_file()]
 
 
+@pytest.mark.ros_build
 @pytest.mark.skipif(shutil.which("colcon", path=str(VENV / "bin")) is None, reason="colcon not in the venv")
 def test_colcon_builds_both_packages(tmp_path: Path) -> None:
     src = tmp_path / "src" / "g1_mode_manager"
