@@ -19,7 +19,8 @@ def _at(rows: Sequence[Row], warmup_s: float) -> tuple[Row, Row, Row]:
 CELLS: list[tuple[str, Callable[[Row], str]]] = [
     ("RSS MB", lambda r: f"{r['rss_kb'] / 1024:.1f}"),
     ("ring MB (most so far)", lambda r: f"{r['ring_kb'] / 1024:.1f} ({r['ring_peak_kb'] / 1024:.1f})"),
-    ("RSS less the most, MB", lambda r: f"{r['rss_net_kb'] / 1024:.1f}"),
+    ("private (RssAnon) MB", lambda r: f"{r['rss_anon_kb'] / 1024:.1f}"),
+    ("private less the ring's most, MB", lambda r: f"{r['anon_net_kb'] / 1024:.1f}"),
     ("threads", lambda r: str(r["threads"])),
     ("fds", lambda r: str(r["fds"])),
     ("ROS pubs/subs/services/clients", lambda r: f"{r['ros_pubs']}/{r['ros_subs']}/{r['ros_services']}/{r['ros_clients']}"),

@@ -14,7 +14,7 @@ from soak import probes
 COLUMNS = ("run_s", "lifetime", "age_s", "pid", "mode", "rss_kb", "rss_anon_kb", "threads", "fds", "ros_nodes",
            "ros_pubs", "ros_subs", "ros_services", "ros_clients", "sdk_participants", "sdk_node_writers",
            "sdk_node_readers", "sim_matched_readers", "sim_rss_kb", "ring_events", "ring_kb",
-           "ring_peak_kb", "rss_net_kb")
+           "ring_peak_kb", "anon_net_kb")
 
 
 class SampleLog:
@@ -79,5 +79,5 @@ class Sampler:
         row["sim_matched_readers"] = probes.sim_matched_readers(self._sim.get())
         row["sim_rss_kb"] = probes.rss_kb(self._bridge_pid)
         row["ring_events"], row["ring_kb"], row["ring_peak_kb"] = self._ring()
-        row["rss_net_kb"] = row["rss_kb"] - round(row["ring_peak_kb"])  # what soak.growth judges
+        row["anon_net_kb"] = row["rss_anon_kb"] - round(row["ring_peak_kb"])  # what soak.growth judges
         return row

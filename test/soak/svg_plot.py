@@ -10,8 +10,9 @@ from soak.growth import Row, group_lifetimes
 #: (title, [(label, value of a row, colour)]) per panel.
 Series = tuple[str, Callable[[Row], float], str]
 PANELS: list[tuple[str, list[Series]]] = [
-    ("node RSS (VmRSS), MB", [("VmRSS", lambda r: r["rss_kb"] / 1024, "#1f77b4"),
-                              ("less the ring's most", lambda r: r["rss_net_kb"] / 1024, "#aec7e8")]),
+    ("node memory, MB", [("VmRSS", lambda r: r["rss_kb"] / 1024, "#1f77b4"),
+                         ("RssAnon", lambda r: r["rss_anon_kb"] / 1024, "#6baed6"),
+                         ("RssAnon less the ring's most", lambda r: r["anon_net_kb"] / 1024, "#aec7e8")]),
     ("node threads and open fds", [("threads", lambda r: r["threads"], "#d62728"),
                                    ("fds", lambda r: r["fds"], "#ff9896")]),
     ("node ROS endpoints (graph)", [("publishers", lambda r: r["ros_pubs"], "#2ca02c"),

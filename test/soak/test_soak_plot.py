@@ -7,7 +7,7 @@ from pathlib import Path
 
 from soak.svg_plot import PANELS, write_svg
 
-FIELDS = ("rss_kb", "rss_net_kb", "rss_anon_kb", "threads", "fds", "ros_pubs", "ros_subs", "ros_services", "ros_clients",
+FIELDS = ("rss_kb", "anon_net_kb", "rss_anon_kb", "threads", "fds", "ros_pubs", "ros_subs", "ros_services", "ros_clients",
           "sdk_node_writers", "sdk_node_readers", "sim_matched_readers")
 
 

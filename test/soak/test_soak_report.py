@@ -5,7 +5,7 @@ from __future__ import annotations
 from soak.growth import Growth
 from soak.report import figures_table, last_line
 
-FIGURES = {"rss_kb": 88_000, "ring_kb": 1_500.0, "ring_peak_kb": 2_000.0, "rss_net_kb": 86_000,
+FIGURES = {"rss_kb": 88_000, "ring_kb": 1_500.0, "ring_peak_kb": 2_000.0, "anon_net_kb": 46_000,
            "rss_anon_kb": 48_000, "threads": 38, "fds": 24, "ros_pubs": 11, "ros_subs": 4,
            "ros_services": 14, "ros_clients": 0, "sdk_node_writers": 5, "sdk_node_readers": 11,
            "sim_matched_readers": 5, "sdk_participants": 3}
@@ -24,5 +24,5 @@ def test_the_table_has_a_line_per_lifetime_with_start_warm_and_end() -> None:
     table = figures_table(rows, 60.0, {1: 2})
     assert len(table) == 4
     assert table[2].startswith("| 0 | 4 (90 s) | 85.9 → 85.9 → 85.9 | 1.5 (2.0) → 1.5 (2.0) → 1.5 (2.0) | "
-                               "84.0 → 84.0 → 84.0 | 28 → 38 → 38 |") and table[2].endswith("| 0 |")
+                               "46.9 → 46.9 → 46.9 | 44.9 → 44.9 → 44.9 | 28 → 38 → 38 |") and table[2].endswith("| 0 |")
     assert table[3].endswith("| 2 |")
