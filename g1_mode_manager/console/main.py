@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING, Any
 from g1_mode_manager.help_flag import wants_help
 
 if TYPE_CHECKING:  # rclpy is imported only once the RMW is set (see _environment)
+    from collections.abc import Callable
+
     from rclpy.node import Node
 
     from g1_mode_manager.console.access import Access
@@ -119,6 +121,16 @@ def _build(node: Node) -> tuple | None:
     return node, settings, access, rules, teleop, RobotView(), manager, hello
 
 
+def call_in_loop(loop: asyncio.AbstractEventLoop, callback: Callable[[], object]) -> None:
+    """``callback`` in ``loop``, from the ROS executor's thread. The executor outlives the loop by up to its shutdown:
+    an answer that lands then (the mode manager's parameters, read at start, answered as a SIGTERM came) has no page
+    left to tell, and must not raise in the executor's thread."""
+    try:
+        loop.call_soon_threadsafe(callback)
+    except RuntimeError:  # the loop is closed
+        pass
+
+
 async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: MessageRules, teleop: Teleop,
                  view: RobotView, manager: str, hello: dict[str, Any]) -> int:
     """Serve until SIGINT or SIGTERM; the exit status (REFUSED if the address cannot be bound)."""
@@ -136,8 +148,7 @@ async def _serve(node: Node, settings: ConsoleSettings, access: Access, rules: M
         loop.add_signal_handler(sig, stop.set)
     server_ref: list = []
     policy = PolicyView()
-    bridge = RosBridge(node, manager, view, policy,
-                       lambda: server_ref and loop.call_soon_threadsafe(server_ref[0].changed))
+    bridge = RosBridge(node, manager, view, policy, lambda: server_ref and call_in_loop(loop, server_ref[0].changed))
 
     def blocked(now: float) -> str | None:
         return bridge.ready_to_drive() or view.drive_block(now)
