@@ -56,9 +56,9 @@ test: setup lint
 	$(BIN)/python -m pytest -n 4 --dist loadfile --no-loadscope-reorder --durations=20 \
 		-m "not policy_faults and not latency_only and not ros_build"
 
-# Two checks CI runs after `make test`, alone, that the suite's two loaded cores do not carry (their CPU, about a
-# sixth of the suite's, in docs/figures.md): the ordinary ROS build of both packages with colcon, and the rest of
-# CI's fixed chaos batch (`make test` runs its seeds 7000-7011, this the 18 after them: 30 of the 33 cells aimed).
+# Two checks CI runs after `make test`, alone, so that the suite's two loaded cores do not carry them (their cost in
+# docs/figures.md): the ordinary ROS build of both packages with colcon, and the rest of CI's fixed chaos batch
+# (`make test` runs its seeds 7000-7011, this the 18 after them: 30 of the 33 cells aimed).
 ros-build: setup
 	$(BIN)/python -m pytest -q -m ros_build test/packaging/test_colcon_build.py
 chaos-ci: setup
