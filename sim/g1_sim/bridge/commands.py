@@ -38,6 +38,7 @@ from g1_mode_manager.protocol.idl import LowCmd_
 from g1_mode_manager.protocol.motors import (
     ARM_SDK_JOINTS,
     ARM_SDK_WEIGHT_INDEX,
+    JOINT_RANGE_RAD,
     MODE_MACHINE_G1_29DOF,
     MOTOR_ENABLED,
     NUM_JOINTS,
@@ -69,9 +70,20 @@ CRC_WRONG: Final = "wrong"
 
 _MOTOR: Final = attrgetter("mode", "q", "dq", "tau", "kp", "kd")
 #: on_frame(topic, reason ignored or None, arm_sdk weight, largest kp, its crc field as CRC_OK / CRC_NONE /
-#: CRC_WRONG, when it arrived (None: not known), its arrival number on the topic (None: not known)): for the sim's
-#: record.
-FrameHook = Callable[[str, "str | None", float, float, str, "float | None", "int | None"], None]
+#: CRC_WRONG, when it arrived (None: not known), its arrival number on the topic (None: not known), when its writer
+#: wrote it (None: not known), how far its furthest position target lies past its joint's range (rad, 0 within)):
+#: for the sim's record, called once the frame is applied (or ignored).
+FrameHook = Callable[[str, "str | None", float, float, str, "float | None", "int | None", "float | None", float],
+                     None]
+_LOWEST: Final = np.array([low for low, _ in JOINT_RANGE_RAD])
+_HIGHEST: Final = np.array([high for _, high in JOINT_RANGE_RAD])
+
+
+def past_range(q: np.ndarray, joints: range | tuple[int, ...]) -> float:
+    """How far the furthest of ``q`` (targets of ``joints``) lies outside its joint's range, rad (0: all within;
+    NaN stays NaN)."""
+    index = list(joints)
+    return float(max(0.0, np.max(np.maximum(q - _HIGHEST[index], _LOWEST[index] - q))))
 
 
 def crc_state(field: int, content: int) -> str:
@@ -130,10 +142,11 @@ class CommandIntake:
         with self._lock:
             return {topic: dict(sorted(c.items())) for topic, c in self._counts.items()}
 
-    def on_lowcmd(self, msg: LowCmd_, at: float | None = None, n: int | None = None) -> str | None:
+    def on_lowcmd(self, msg: LowCmd_, at: float | None = None, n: int | None = None,
+                  written: float | None = None) -> str | None:
         """Apply a rt/lowcmd frame that arrived at ``at`` as the topic's ``n``-th; returns the reason it was ignored,
         or None."""
-        return self._on_joint_frame(LOWCMD, msg, self._apply_lowcmd, at, n)
+        return self._on_joint_frame(LOWCMD, msg, self._apply_lowcmd, at, n, written)
 
     def _apply_lowcmd(self, m: np.ndarray, enabled: np.ndarray) -> str | None:
         if self._robot.user_ctrl_active:
@@ -143,16 +156,17 @@ class CommandIntake:
         self._robot.apply_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled)
         return None
 
-    def on_user_lowcmd(self, msg: LowCmd_, at: float | None = None, n: int | None = None) -> str | None:
+    def on_user_lowcmd(self, msg: LowCmd_, at: float | None = None, n: int | None = None,
+                       written: float | None = None) -> str | None:
         """Apply a rt/user_lowcmd frame as ``on_lowcmd``. The robot decides whether user control is in force (under
         its lock, so a frame never lands on the wrong side of the switch)."""
-        return self._on_joint_frame(USER_LOWCMD, msg, self._apply_user_lowcmd, at, n)
+        return self._on_joint_frame(USER_LOWCMD, msg, self._apply_user_lowcmd, at, n, written)
 
     def _apply_user_lowcmd(self, m: np.ndarray, enabled: np.ndarray) -> str | None:
         return None if self._robot.apply_user_lowcmd(m[1], m[2], m[3], m[4], m[5], enabled) else NOT_USER_CTRL
 
     def _on_joint_frame(self, topic: str, msg: LowCmd_, apply: Callable[[np.ndarray, np.ndarray], str | None],
-                        at: float | None, n: int | None) -> str | None:
+                        at: float | None, n: int | None, written: float | None = None) -> str | None:
         """A frame that drives all 29 motors: the robot's checks of any such frame, then ``apply`` (the topic's own
         rule, which applies the frame or says why not); counted, and recorded through ``on_frame``."""
         self._last_frame_at = time.monotonic()
@@ -168,10 +182,12 @@ class CommandIntake:
         else:
             self._ignore(topic, why)
         if self._on_frame is not None:
-            self._on_frame(topic, why, 0.0, float(np.nanmax(m[4])), crc_state(int(msg.crc), content), at, n)
+            self._on_frame(topic, why, 0.0, float(np.nanmax(m[4])), crc_state(int(msg.crc), content), at, n,
+                           written, past_range(m[1], range(NUM_JOINTS)))
         return why
 
-    def on_arm_sdk(self, msg: LowCmd_, at: float | None = None, n: int | None = None) -> str | None:
+    def on_arm_sdk(self, msg: LowCmd_, at: float | None = None, n: int | None = None,
+                   written: float | None = None) -> str | None:
         """Apply a rt/arm_sdk frame as ``on_lowcmd``."""
         self._last_frame_at = time.monotonic()
         content = self._crc(msg)
@@ -187,7 +203,8 @@ class CommandIntake:
         else:
             self._ignore(ARM_SDK, why)
         if self._on_frame is not None:
-            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), crc, at, n)
+            self._on_frame(ARM_SDK, why, weight if math.isfinite(weight) else -1.0, float(np.nanmax(m[4])), crc, at, n,
+                           written, past_range(m[1], ARM_SDK_JOINTS))
         return why
 
     def _check_arm_sdk(self, m: np.ndarray, weight: float) -> str | None:

@@ -42,8 +42,9 @@ _TAKE_MAX: Final = 64
 #: Listeners Cyclone may still call are kept for the life of the process (freeing one can crash a DDS thread).
 _NEVER_FREED: list[Any] = []
 
-#: handler(frame, receive time (CLOCK_MONOTONIC), arrival number on this topic, counted from 1)
-Handler = Callable[[LowCmd_, float, int], object]
+#: handler(frame, receive time (CLOCK_MONOTONIC), arrival number on this topic counted from 1, when its writer wrote it
+#: (its DDS source timestamp, the writer's CLOCK_REALTIME, as this process's CLOCK_MONOTONIC: on one machine the write))
+Handler = Callable[[LowCmd_, float, int, float], object]
 #: on_drop(first arrival number dropped, how many in a row)
 DropHook = Callable[[int, int], None]
 
@@ -58,7 +59,7 @@ class FrameReader:
         self._on_drop = on_drop
         self._max_backlog = max_backlog
         self._cond = threading.Condition()
-        self._backlog: deque[tuple[int, float, bytes]] = deque()
+        self._backlog: deque[tuple[int, float, bytes, float]] = deque()
         self._arrived = 0
         self._drops: list[list[int]] = []  # [first number, count] of each run of dropped frames not yet reported
         self._dropped = 0
@@ -85,6 +86,7 @@ class FrameReader:
 
     def _on_data(self, _reader: Any) -> None:
         t = time.monotonic()
+        realtime_ahead = time.time() - t
         while True:
             taken = take_serialized(self._reader, _TAKE_MAX)
             if not taken:
@@ -95,7 +97,7 @@ class FrameReader:
                         continue
                     self._arrived += 1
                     if len(self._backlog) < self._max_backlog:
-                        self._backlog.append((self._arrived, t, raw))
+                        self._backlog.append((self._arrived, t, raw, info.source_timestamp * 1e-9 - realtime_ahead))
                         self._deepest = max(self._deepest, len(self._backlog))
                     else:
                         self._dropped += 1
@@ -117,11 +119,11 @@ class FrameReader:
                 frames = list(self._backlog)
                 self._backlog.clear()
                 drops, self._drops = self._drops, []
-            for n, t, raw in frames:
+            for n, t, raw, written in frames:
                 # a run of drops is reported before the first frame that arrived after it
                 while drops and drops[0][0] < n:
                     self._report_drop(*drops.pop(0))
-                self._handle(n, t, raw)
+                self._handle(n, t, raw, written)
             for first, count in drops:
                 self._report_drop(first, count)
 
@@ -131,9 +133,9 @@ class FrameReader:
         if self._on_drop is not None:
             self._on_drop(first, count)
 
-    def _handle(self, n: int, t: float, raw: bytes) -> None:
+    def _handle(self, n: int, t: float, raw: bytes, written: float) -> None:
         """An exception would end this topic's handling for good: log it and go on."""
         try:
-            self._handler(LowCmd_.deserialize(raw), t, n)
+            self._handler(LowCmd_.deserialize(raw), t, n, written)
         except Exception:
             log.exception("frame %d on %s failed", n, self.topic)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import signal
 import sys
 import threading
@@ -292,10 +293,13 @@ class Bridge:
         self._record_state()
 
     def _frame(self, topic: str, why: str | None, weight: float, kp_max: float, crc: str, at: float | None,
-               n: int | None) -> None:
+               n: int | None, written: float | None = None, past: float = 0.0) -> None:
+        applied = time.monotonic()
         if topic == self._user_lowcmd_topic:  # the switch to fsm 1000 is on the record before any user frame it let through
             self._record_state()
-        self.record.event("frame", at=at, topic=topic, n=n, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc)
+        self.record.event("frame", at=at, topic=topic, n=n, ok=why is None, why=why, w=weight, kp_max=kp_max, crc=crc,
+                          src=None if written is None else round(written, 6), ap=round(applied, 6),
+                          past=round(past, 4) if math.isfinite(past) else None)
 
     def _dropped(self, topic: str, first: int, count: int) -> None:
         """Frames that reached the sim and were never looked at: the record is not complete, and says so."""

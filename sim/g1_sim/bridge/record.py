@@ -11,7 +11,10 @@ of the machine, so a test can compare it with the moment it sent something). Kin
 * ``frame``: an rt/lowcmd, rt/user_lowcmd or rt/arm_sdk frame: ``topic``, ``n`` (its arrival number on the topic,
   counted from 1 since the sim started), ``ok``, ``why`` (ignore reason or null), ``w`` (arm_sdk blend weight),
   ``kp_max`` (largest stiffness commanded), ``crc`` (its crc field: "ok", "none" = left 0, "wrong"; rt/lowcmd and
-  rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` is when the sim's Cyclone delivered it. Every frame
+  rt/user_lowcmd need "ok", rt/arm_sdk takes all three); ``t`` is when the sim's Cyclone delivered it, ``src`` when
+  its writer wrote it (its DDS source timestamp: the writer's CLOCK_REALTIME taken as CLOCK_MONOTONIC, exact on one
+  machine), ``ap`` when the sim had applied (or ignored) it, from which step on it acts, ``past`` how far its
+  furthest position target lies outside its joint's range (rad, 0 within; null for a non-finite one). Every frame
   that reached the sim is on the record, in arrival order per topic (frame_reader.py), unless a ``drop`` says
   otherwise.
 * ``drop``: ``count`` frames of ``topic`` from arrival number ``n`` on reached the sim and were never looked at (its
