@@ -18,6 +18,7 @@ import yaml
 
 from g1_mode_manager.core.controller.interface import ControllerError
 from g1_mode_manager.core.joint_commands import MAX_KD, MAX_KP
+from g1_mode_manager.policy.action_scale import SCALE_BY, ScaleRequest
 from g1_mode_manager.policy.builtin import builtin_configs
 from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
 
@@ -38,7 +39,8 @@ class DeployConfig:
     kind: str
     model: Path
     rate_hz: float
-    action_scale: float
+    #: what the YAML says of the action scale; the model's own word comes first (policy/action_scale.py)
+    action_scale: ScaleRequest
     action_clip: float
     default_pose: np.ndarray  # (29,) rad, motor order
     kp: np.ndarray  # (29,) N m/rad
@@ -126,7 +128,7 @@ def parse_deploy_config(raw: dict[str, Any], *, name: str, model: Path, metadata
             raise ControllerError(f"policy {name}: {key} must lie within [0, {high}] for every joint")
     return DeployConfig(
         name=name, kind=kind, model=model, rate_hz=rate_hz,
-        action_scale=_positive(name, "action_scale", field("action_scale")),
+        action_scale=_scale_request(name, raw),
         action_clip=_positive(name, "action_clip", field("action_clip", 100.0)),
         default_pose=pose, kp=kp, kd=kd, ready_kp=ready_kp, ready_kd=ready_kd,
         observation=ObservationSpec(str(obs["input"]), tuple(map(str, obs["terms"])),
@@ -136,6 +138,23 @@ def parse_deploy_config(raw: dict[str, Any], *, name: str, model: Path, metadata
         ready_pose=_ready_pose(name, field("ready_pose", "default")),
         start_hold_s=_non_negative(name, "start_hold_s", field("start_hold_s", 0.0)),
     )
+
+
+def _scale_request(name: str, raw: dict[str, Any]) -> ScaleRequest:
+    """The YAML's action scale fields, checked (their meaning: policy/action_scale.py)."""
+    value = _positive(name, "action_scale", raw["action_scale"]) if "action_scale" in raw else None
+    by = raw.get("action_scale_by")
+    if by is not None and by not in SCALE_BY:
+        raise ControllerError(f"policy {name}: action_scale_by {by!r} is not one of {', '.join(SCALE_BY)}")
+    if by is not None and value is None:
+        raise ControllerError(f"policy {name}: action_scale_by is given without action_scale")
+    override = raw.get("action_scale_override", False)
+    if not isinstance(override, bool):
+        raise ControllerError(f"policy {name}: action_scale_override must be true or false, got {override!r}")
+    source = raw.get("action_scale_source", "")
+    if not isinstance(source, str):
+        raise ControllerError(f"policy {name}: action_scale_source must be text, got {source!r}")
+    return ScaleRequest(value, by, source.strip(), override)
 
 
 def _ready_pose(name: str, value: Any) -> str:

@@ -10,6 +10,7 @@ import numpy as np
 
 from g1_mode_manager.core.controller.interface import Command, Controller, ControllerError, RobotState
 from g1_mode_manager.core.controller.targets import frame_of
+from g1_mode_manager.policy.action_scale import resolve_action_scale, urdf_effort_limits
 from g1_mode_manager.policy.deploy_config import parse_deploy_config, read_config, resolve_model
 from g1_mode_manager.policy.locomotion import LocomotionController
 from g1_mode_manager.policy.model import PolicyModel
@@ -20,12 +21,14 @@ def load_policy(policy: str, model_dir: Path) -> Controller:
     name, raw = read_config(policy)
     model = PolicyModel(resolve_model(name, raw, model_dir))
     config = parse_deploy_config(raw, name=name, model=model.path, metadata=model.metadata)
+    scale = resolve_action_scale(name, config.kind, config.action_scale, model.metadata, config.kp,
+                                 urdf_effort_limits(name, model.metadata))
     if config.kind == "locomotion":
-        controller: Controller = LocomotionController(config, model)
+        controller: Controller = LocomotionController(config, model, scale)
     else:
         from g1_mode_manager.policy.motion_tracking import MotionTrackingController
 
-        controller = MotionTrackingController(config, model)
+        controller = MotionTrackingController(config, model, scale)
     _probe(controller, config.default_pose)
     return controller
 

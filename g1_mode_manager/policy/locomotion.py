@@ -13,6 +13,7 @@ from typing import Final
 import numpy as np
 
 from g1_mode_manager.core.controller.interface import Command, ControllerError, JointTargets, RobotState
+from g1_mode_manager.policy.action_scale import ActionScale
 from g1_mode_manager.policy.deploy_config import DeployConfig
 from g1_mode_manager.policy.model import PolicyModel
 from g1_mode_manager.policy.observation import ObservationBuilder, common_terms
@@ -23,8 +24,10 @@ STAND_COMMAND_NORM: Final = 0.01
 
 
 class LocomotionController:
-    def __init__(self, config: DeployConfig, model: PolicyModel) -> None:
+    def __init__(self, config: DeployConfig, model: PolicyModel, scale: ActionScale) -> None:
         self.name = config.name
+        self.action_scale = scale.values
+        self.action_scale_rule = scale.rule
         self.rate_hz = config.rate_hz
         self._config = config
         self._model = model
@@ -61,6 +64,9 @@ class LocomotionController:
     def reference(self) -> None:
         return None
 
+    def reference_speeds(self) -> None:
+        return None
+
     def _advance_phase(self, command: np.ndarray) -> None:
         self.phase = np.fmod(self.phase + self._phase_dt + np.pi, 2 * np.pi) - np.pi
         if np.linalg.norm(command) < STAND_COMMAND_NORM:
@@ -82,5 +88,5 @@ class LocomotionController:
         if not np.all(np.isfinite(action)):
             raise ControllerError(f"policy {self.name}: non-finite action from the model")
         self.last_action = np.clip(action, -c.action_clip, c.action_clip)
-        return JointTargets(q=c.default_pose + c.action_scale * self.last_action, dq=self._zeros, tau=self._zeros,
+        return JointTargets(q=c.default_pose + self.action_scale * self.last_action, dq=self._zeros, tau=self._zeros,
                             kp=c.kp, kd=c.kd)

@@ -24,10 +24,11 @@ from typing import Final
 import numpy as np
 
 from g1_mode_manager.core.controller.interface import Command, ControllerError, JointTargets, RobotState
+from g1_mode_manager.policy.action_scale import ActionScale
 from g1_mode_manager.policy.deploy_config import DeployConfig
 from g1_mode_manager.policy.model import PolicyModel
 from g1_mode_manager.policy.observation import ObservationBuilder, common_terms
-from g1_mode_manager.protocol.motors import JOINT_INDEX, JOINT_NAMES, NUM_JOINTS
+from g1_mode_manager.protocol.motors import JOINT_INDEX, NUM_JOINTS
 
 #: The model's clock input and the outputs a tick uses (holosoma's WBT ONNX export).
 TIME_STEP_INPUT: Final = "time_step"
@@ -97,6 +98,20 @@ def without_yaw(rotation: np.ndarray, yaw: float) -> np.ndarray:
     return _rot_z(-yaw) @ rotation
 
 
+def turning_rates(before: np.ndarray, after: np.ndarray, dt_s: float) -> np.ndarray:
+    """How fast a body turned from rotation ``before`` to ``after`` in ``dt_s``, about each axis of its own frame
+    (as a gyro reads it): |angular velocity| x, y, z, rad/s."""
+    delta = before.T @ after
+    angle = float(np.arccos(np.clip((np.trace(delta) - 1.0) / 2.0, -1.0, 1.0)))
+    axis = np.array([delta[2, 1] - delta[1, 2], delta[0, 2] - delta[2, 0], delta[1, 0] - delta[0, 1]])
+    norm = float(np.linalg.norm(axis))
+    if angle < 1e-9:
+        return np.zeros(3)
+    if norm < 1e-12:  # a half turn in one tick: the axis is not in the antisymmetric part; bound every axis by it
+        return np.full(3, angle / dt_s)
+    return np.abs(axis / norm) * angle / dt_s
+
+
 def ref_ori_b(robot: np.ndarray, motion: np.ndarray) -> np.ndarray:
     """The clip's reference body orientation in the robot's (robot^-1 * motion), as its rotation's first two
     columns read row by row: holosoma's ``matrix_from_quat(...)[..., :2].reshape(1, -1)`` layout."""
@@ -141,50 +156,6 @@ def _floats(text: str, joint: str) -> np.ndarray:
     return values
 
 
-def action_scales(config: DeployConfig, metadata: dict[str, str], urdf: ET.Element) -> np.ndarray:
-    """Per-joint action scale, in holosoma's order of precedence (policies/wbt.py, ``_configure_action_scales``).
-
-    The model's ``action_scale`` metadata (a number or one per joint) if it has one; otherwise the config's
-    ``action_scale`` times each joint's effort limit (the model's URDF) over its training stiffness (the model's
-    ``kp`` metadata, else the config's kp): the scaling the dance models were trained with
-    (``action_scales_by_effort_limit_over_p_gain`` with ``robot.control.action_scale`` 0.25), which is also
-    holosoma-inference's ``G1_29DOF_PER_JOINT_ACTION_SCALE`` table.
-    """
-    if "action_scale" in metadata:
-        raw = metadata["action_scale"]
-        try:
-            parsed = json.loads(raw)
-        except ValueError:
-            parsed = raw  # holosoma also accepts comma-separated numbers
-        try:
-            values = np.asarray([float(v) for v in parsed.split(",") if v.strip()] if isinstance(parsed, str)
-                                else parsed, dtype=float).reshape(-1)
-        except (ValueError, TypeError):
-            raise ControllerError(f"policy {config.name}: the model's action_scale metadata {raw!r} is not numbers") \
-                from None
-        scales = np.full(NUM_JOINTS, values[0]) if values.size == 1 else values
-    else:
-        effort: dict[str, float] = {}
-        for joint in urdf.iter("joint"):
-            limit = joint.find("limit")
-            if limit is not None and limit.get("effort") is not None:
-                effort[str(joint.get("name"))] = float(limit.get("effort", "nan"))
-        missing = [n for n in JOINT_NAMES if n not in effort]
-        if missing:
-            raise ControllerError(f"policy {config.name}: action_scale needs the effort limits of {missing} in the "
-                                  "model's URDF")
-        trained = _metadata_json(metadata, "kp", config.name) if "kp" in metadata else config.kp
-        kp = np.full(NUM_JOINTS, np.nan)  # refused below unless the model's kp are 29 numbers
-        if isinstance(trained, list | np.ndarray) and len(trained) == NUM_JOINTS:
-            kp = np.array([v if isinstance(v, int | float) else np.nan for v in trained], dtype=float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scales = config.action_scale * np.array([effort[n] for n in JOINT_NAMES]) / kp
-    if scales.shape != (NUM_JOINTS,) or not np.all(np.isfinite(scales)) or np.any(scales <= 0.0):
-        raise ControllerError(f"policy {config.name}: action_scale must give {NUM_JOINTS} finite values > 0 per "
-                              f"joint, got {np.asarray(scales).tolist()}")
-    return scales
-
-
 def _metadata_json(metadata: dict[str, str], key: str, policy: str) -> object:
     try:
         return json.loads(metadata[key])
@@ -216,7 +187,7 @@ def clip_end(frame_at: Callable[[int], tuple[np.ndarray, ...]], policy: str) -> 
 
 
 class MotionTrackingController:
-    def __init__(self, config: DeployConfig, model: PolicyModel) -> None:
+    def __init__(self, config: DeployConfig, model: PolicyModel, scale: ActionScale) -> None:
         self.name = config.name
         self.rate_hz = config.rate_hz
         self._config = config
@@ -236,8 +207,9 @@ class MotionTrackingController:
         if "robot_urdf" not in model.metadata:
             raise ControllerError(f"policy {config.name}: the model carries no robot_urdf metadata (its waist "
                                   "kinematics and effort limits)")
-        urdf = check_waist_chain(str(_metadata_json(model.metadata, "robot_urdf", config.name)), config.name)
-        self.action_scale = action_scales(config, model.metadata, urdf)
+        check_waist_chain(str(_metadata_json(model.metadata, "robot_urdf", config.name)), config.name)
+        self.action_scale = scale.values
+        self.action_scale_rule = scale.rule
         self._zero_obs = np.zeros((1, inputs[obs_input]), dtype=np.float32)
         self._time = np.zeros((1, 1), dtype=np.float32)
         #: The time step of the clip's last frame: its length in ticks.
@@ -246,8 +218,12 @@ class MotionTrackingController:
         self._active = False
         self.reference_q = np.zeros(NUM_JOINTS)  # the clip's latest joint positions (motor order, rad)
         self.reference_dq = np.zeros(NUM_JOINTS)  # and speeds (rad/s)
+        self.reference_rates = np.zeros(3)  # how fast its reference body turned into the latest frame (rad/s, x y z)
+        self._motion_ref: np.ndarray | None = None
         self.last_action = np.zeros(NUM_JOINTS)
         self._step = 0
+        self.start_hold_s = config.start_hold_s
+        self.model_path = config.model
         self._hold_ticks = round(config.start_hold_s * config.rate_hz)
         self._held = 0  # ticks run at the first time step since activation
 
@@ -263,7 +239,9 @@ class MotionTrackingController:
         self.reference_q, self.reference_dq = joint_pos, joint_vel
         self._motion_command = np.concatenate([joint_pos, joint_vel])
         x, y, z, w = ref_quat_xyzw
-        self._motion_ref = quat_wxyz_to_matrix(np.array([w, x, y, z]))
+        after = quat_wxyz_to_matrix(np.array([w, x, y, z]))
+        before, self._motion_ref = self._motion_ref, after
+        self.reference_rates = np.zeros(3) if before is None else turning_rates(before, after, 1.0 / self.rate_hz)
 
     def _robot_ref(self, state: RobotState) -> np.ndarray:
         return torso_orientation(state.quaternion_wxyz, *state.q[_WAIST])
@@ -274,6 +252,7 @@ class MotionTrackingController:
         self.last_action = np.zeros(NUM_JOINTS)
         self._step = 0
         self._held = 0
+        self._motion_ref = None
         self._take_frame(*self._run(self._zero_obs, 0)[1:])
         self._motion_yaw = yaw_of(self._motion_ref)
         self._robot_yaw = yaw_of(self._robot_ref(state))
@@ -288,6 +267,9 @@ class MotionTrackingController:
 
     def reference(self) -> np.ndarray:
         return self.reference_q
+
+    def reference_speeds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.reference_dq, self.reference_rates
 
     def ready(self) -> JointTargets:
         """The pose the engage blends to before the policy starts, held with the config's ready gains: the default

@@ -67,6 +67,8 @@ class Controller(Protocol):
 
     name: str
     rate_hz: float
+    #: the action scale and the rule that gave it (policy/action_scale.py), said at load and on the status
+    action_scale_rule: str
 
     def activate(self, state: RobotState) -> None:
         """Start from the measured state (reset histories, the gait, the motion's clock)."""
@@ -83,6 +85,11 @@ class Controller(Protocol):
     def reference(self) -> np.ndarray | None:
         """The joint positions a tracking policy is following at this tick (its motion's frame), to judge how well
         the robot tracks it; None for a policy without a reference."""
+
+    def reference_speeds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """What a tracking policy's motion asks at this tick: its joint speeds (rad/s, motor order) and how fast its
+        reference body turns about each of its axes (rad/s, x y z), so that the speed checks do not take the motion
+        for a flail; None for a policy without a motion."""
 
     def ready(self) -> JointTargets | None:
         """Where the robot must be before the first step, with the gains to hold it there (a tracking policy's
