@@ -11,6 +11,7 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
 from g1_mode_manager.core.body.checks import BY_NAME, Reaction
 from g1_mode_manager.core.body.monitor import BodyMonitor, CheckStatus
+from g1_mode_manager.core.body.motion_allowance import MotionRecord
 from g1_mode_manager.core.body.readings import BodyReadings
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.machine import ModeMachine
@@ -26,13 +27,13 @@ _LEVELS = {"fault": DiagnosticStatus.ERROR, "hold": DiagnosticStatus.ERROR, "war
 
 class BodySupervision:
     def __init__(self, port: RobotPort, machine: ModeMachine, events: RelayEvents, settings: Settings,
-                 on_error: Callable[[BaseException], None]) -> None:
+                 on_error: Callable[[BaseException], None], motion: MotionRecord | None = None) -> None:
         s = settings
         self.monitor = BodyMonitor(clear_hold_s=s.fault_clear_hold_s, thresholds=s.body_thresholds())
         self.watch = BodyWatch(port, machine, self.monitor, events, estop_keys=parse_keys(s.remote_estop_keys),
                                deadman_keys=parse_keys(s.lowcmd_deadman_key),
                                fast_period_s=1.0 / s.body_check_rate_hz, slow_period_s=1.0 / s.body_check_slow_rate_hz,
-                               enabled=s.body_checks_enabled)
+                               enabled=s.body_checks_enabled, motion=motion)
         #: what else reads the remote at the watch's rate, after its step (set by whoever builds it: the policy's keys)
         self.on_step: Callable[[], None] = lambda: None
         #: each step's readings, the checks' states (core/body/monitor.py) and when the step began (before it acted

@@ -57,3 +57,10 @@ _WRISTS_RANGE = ((-1.97222, 1.97222), (-1.61443, 1.61443), (-1.61443, 1.61443))
 _LEFT_ARM_RANGE = ((-3.0892, 2.6704), (-1.5882, 2.2515), (-2.618, 2.618), (-1.0472, 2.0944), *_WRISTS_RANGE)
 _RIGHT_ARM_RANGE = ((-3.0892, 2.6704), (-2.2515, 1.5882), (-2.618, 2.618), (-1.0472, 2.0944), *_WRISTS_RANGE)
 JOINT_RANGE_RAD: Final = (*_LEFT_LEG_RANGE, *_RIGHT_LEG_RANGE, *_WAIST_RANGE, *_LEFT_ARM_RANGE, *_RIGHT_ARM_RANGE)
+
+#: Joint speed limits in rad/s, by motor index: each joint's ``velocity`` limit in Unitree's G1 29-dof URDF (the one
+#: holosoma's models carry as ``robot_urdf``; test/sdk/test_joint_ranges.py holds them against it): the motors' top
+#: speed. The joint-speed check never allows more (core/body/joint_speed.py).
+_LEG_SPEED = (32.0, 20.0, 32.0, 20.0, 37.0, 37.0)
+_ARM_SPEED = (37.0, 37.0, 37.0, 37.0, 37.0, 22.0, 22.0)
+VELOCITY_LIMIT_RAD_S: Final = (*_LEG_SPEED, *_LEG_SPEED, 32.0, 37.0, 37.0, *_ARM_SPEED, *_ARM_SPEED)

@@ -20,6 +20,7 @@ from typing import Protocol
 
 from g1_mode_manager.core.body.checks import Reaction, holds_upright
 from g1_mode_manager.core.body.monitor import BodyMonitor
+from g1_mode_manager.core.body.motion_allowance import Allowance, MotionRecord, MotionSpeeds, allowance
 from g1_mode_manager.core.body.readings import BodyReadings, readings_of
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
@@ -49,7 +50,9 @@ class BodyMachine(Protocol):
 class BodyWatch:
     def __init__(self, port: RobotPort, machine: BodyMachine, monitor: BodyMonitor, events: RelayEvents, *,
                  estop_keys: int, deadman_keys: int, fast_period_s: float, slow_period_s: float,
-                 enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:
+                 enabled: bool = True, motion: MotionRecord | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        """``motion``: what a tracking policy's motion asks for, so that its own speeds are not judged a flail."""
         self._port = port
         self._machine = machine
         self.monitor = monitor
@@ -60,6 +63,8 @@ class BodyWatch:
         self._slow_period_s = slow_period_s
         self._enabled = enabled
         self._clock = clock
+        self._motion = motion
+        self._still = self._allowance(None)  # what the speed checks allow while no motion plays
         self._lock = threading.Lock()
         self._keys = 0  # the remote's key field, as of _keys_at
         self._keys_at = float("-inf")
@@ -83,7 +88,10 @@ class BodyWatch:
             readings = BodyReadings(soc_pct=soc)
         else:
             fields = sample.fields
-            readings = readings_of(fields, state_age_s=sample.age_s, soc_pct=soc)
+            motion = None if self._motion is None else self._motion.recent()
+            readings = readings_of(fields, state_age_s=sample.age_s, soc_pct=soc,
+                                   allowance=self._still if motion is None else self._allowance(motion),
+                                   joint_base_rad_s=self.monitor.threshold("joint_speed"))
             if sample.age_s <= REMOTE_FRESH_S:
                 with self._lock:
                     self._keys = int.from_bytes(fields.remote[2:4], "little")
@@ -104,6 +112,9 @@ class BodyWatch:
             self._events.log("error", "body_hold", f"body check tripped in {status.mode.name}: {', '.join(holds)}: "
                              "no new motion until ~/clear_fault")
             self._machine.hold(holds)
+
+    def _allowance(self, motion: MotionSpeeds | None) -> Allowance:
+        return allowance(self.monitor.threshold("joint_speed"), self.monitor.threshold("spin"), motion)
 
     def _posture(self, sample: StateSample | None, status: MachineStatus) -> PostureReading:
         if sample is None or sample.age_s > POSTURE_FRESH_S:

@@ -13,7 +13,8 @@ from g1_mode_manager.core.body.readings import BodyReadings, tilt_of
 from g1_mode_manager.core.modes import Mode
 
 ID, HI, LO, FA = Mode.IDLE, Mode.HIGH_LEVEL, Mode.LOW_LEVEL, Mode.FAULT
-CALM = BodyReadings(tilt_rad=0.05, gyro_max=0.1, joint_speed_max=0.5, winding_max_c=40.0, casing_max_c=35.0,
+CALM = BodyReadings(tilt_rad=0.05, gyro_max=0.1, gyro_judged=0.1, joint_speed_max=0.5, joint_speed_judged=0.5,
+                    winding_max_c=40.0, casing_max_c=35.0,
                     soc_pct=90.0, state_age_s=0.002)
 
 
@@ -46,7 +47,7 @@ def test_a_fall_faults_after_its_debounce_in_every_mode_that_holds_the_robot_up(
 def test_a_robot_nothing_holds_up_is_not_fallen() -> None:
     monitor = BodyMonitor(clear_hold_s=2.0)
     for t in (10.0, 10.1, 10.2):
-        assert monitor.evaluate(_with(tilt_rad=1.5, gyro_max=8.0), HI, False, t) == []
+        assert monitor.evaluate(_with(tilt_rad=1.5, gyro_max=8.0, gyro_judged=8.0), HI, False, t) == []
     assert {s.check: s.state for s in monitor.statuses()}["tilt"] == "not applicable"
 
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import sys
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import pytest
 
@@ -25,3 +27,20 @@ def test_a_target_past_a_joints_range_is_refused_naming_the_joint(joint):
     for q in (high + RANGE_MARGIN_RAD * 1.1, low - RANGE_MARGIN_RAD * 1.1, 100.0):
         with pytest.raises(JointCommandError, match=f"{joint} is outside its range"):
             validate_lowcmd([joint], [q], [], [], [40.0], [1.0])
+
+
+def test_joint_speed_limits_are_those_of_unitrees_urdf_the_dance_models_carry():
+    import json
+
+    import onnxruntime as ort
+
+    from g1_mode_manager.node.settings import POLICY_MODELS
+    from g1_mode_manager.protocol.motors import VELOCITY_LIMIT_RAD_S
+
+    model = Path(sys.prefix) / POLICY_MODELS / "ppo_g1_29dof_dancing.onnx"
+    meta = ort.InferenceSession(str(model),
+                                providers=["CPUExecutionProvider"]).get_modelmeta().custom_metadata_map
+    urdf = ET.fromstring(json.loads(meta["robot_urdf"]))
+    limits = {j.get("name"): float(j.find("limit").get("velocity")) for j in urdf.iter("joint")
+              if j.find("limit") is not None}
+    assert tuple(limits[name] for name in JOINT_NAMES) == VELOCITY_LIMIT_RAD_S

@@ -61,6 +61,8 @@ class Check:
     reactions: Mapping[Mode, Reaction]
     upright_only: bool  # counts only while something is meant to hold the robot upright
     reference: str  # what it follows
+    #: a BodyReadings field whose text the check's own adds (its words on what it judged), or ""
+    detail: str = ""
 
     def reaction(self, mode: Mode) -> Reaction:
         return self.reactions.get(mode, Reaction.NONE)
@@ -80,10 +82,13 @@ _VENDOR = "Unitree unitree_sdk2 g1/common/terminations.hpp"
 CHECKS: tuple[Check, ...] = (
     Check("tilt", "tilt_rad", "rad", True, 1.0, 0.01, _per_mode(_F, _F, _F), True,
           f"{_VENDOR} bad_orientation: body z more than 1.0 rad from vertical"),
-    Check("spin", "gyro_max", "rad/s", True, 6.0, 0.01, _per_mode(_F, _F, _F), True,
-          f"{_VENDOR} ang_vel_out_of_limit: any gyro axis above 6 rad/s"),
-    Check("joint_speed", "joint_speed_max", "rad/s", True, 10.0, 0.01, _per_mode(_W, _W, _F), True,
-          f"{_VENDOR} joint_vel_out_of_limit: any |dq| above 10 rad/s"),
+    Check("spin", "gyro_judged", "rad/s", True, 6.0, 0.01, _per_mode(_F, _F, _F), True,
+          f"{_VENDOR} ang_vel_out_of_limit: any gyro axis above 6 rad/s (while a motion plays, above what it turns "
+          "the body at, plus a margin: core/body/motion_allowance.py)"),
+    Check("joint_speed", "joint_speed_judged", "rad/s", True, 10.0, 0.01, _per_mode(_W, _W, _F), True,
+          f"{_VENDOR} joint_vel_out_of_limit: any |dq| above 10 rad/s (while a motion plays, above what it asks of "
+          "the joint, plus a margin; never above the joint's URDF velocity limit: core/body/motion_allowance.py)",
+          detail="joint_speed_detail"),
     Check("winding_overheat", "winding_max_c", "°C", True, 120.0, 0.0, _per_mode(_W, _H, _F), False,
           f"{_VENDOR} motor_winding_overheat: temperature[1] above 120 °C"),
     Check("casing_overheat", "casing_max_c", "°C", True, 85.0, 0.0, _per_mode(_W, _H, _F), False,

@@ -47,6 +47,7 @@ class _Track:
     latched: Reaction = Reaction.NONE
     latched_text: str = ""
     value: float | None = None
+    detail: str = ""  # the check's words on what it judged (Check.detail)
     state: str = "no data"
 
 
@@ -65,9 +66,10 @@ class BodyMonitor:
     def threshold(self, name: str) -> float:
         return self._thresholds[name]
 
-    def text(self, check: Check, value: float) -> str:
+    def text(self, check: Check, value: float, detail: str = "") -> str:
         relation = ">" if check.above else "<"
-        return f"{check.name}: {value:.2f} {check.unit} {relation} {self._thresholds[check.name]:g}"
+        return (f"{check.name}: {value:.2f} {check.unit} {relation} {self._thresholds[check.name]:g}"
+                + (f" ({detail})" if detail else ""))
 
     def evaluate(self, readings: BodyReadings, mode: Mode, upright_expected: bool, now: float) -> list[Trip]:
         """One look at the robot; returns the checks whose reaction just grew beyond what they had latched."""
@@ -77,6 +79,7 @@ class BodyMonitor:
                 track = self._tracks[check.name]
                 value = getattr(readings, check.reading)
                 track.value = value
+                track.detail = getattr(readings, check.detail) if check.detail else ""
                 applies = upright_expected or not check.upright_only
                 over = applies and value is not None and check.trips(value, self._thresholds[check.name])
                 if over:
@@ -90,7 +93,7 @@ class BodyMonitor:
                 tripped = over and now - track.over_since >= check.debounce_s  # type: ignore[operator]
                 reaction = check.reaction(mode) if tripped else Reaction.NONE
                 if reaction >= Reaction.HOLD and reaction > track.latched:
-                    track.latched, track.latched_text = reaction, self.text(check, value)  # type: ignore[arg-type]
+                    track.latched, track.latched_text = reaction, self.text(check, value, track.detail)  # type: ignore[arg-type]
                     trips.append(Trip(check.name, reaction, track.latched_text))
                 track.state = self._state(track, applies, value, over, tripped, reaction)
         return trips
@@ -115,7 +118,7 @@ class BodyMonitor:
 
     def warnings(self) -> tuple[str, ...]:
         with self._lock:
-            return tuple(self.text(c, t.value) for c in self._checks  # type: ignore[arg-type]
+            return tuple(self.text(c, t.value, t.detail) for c in self._checks  # type: ignore[arg-type]
                          if (t := self._tracks[c.name]).state == "warn")
 
     def states(self) -> tuple[str, ...]:
@@ -128,7 +131,7 @@ class BodyMonitor:
             out = []
             for c in self._checks:
                 t = self._tracks[c.name]
-                text = t.latched_text or ("" if t.value is None else self.text(c, t.value))
+                text = t.latched_text or ("" if t.value is None else self.text(c, t.value, t.detail))
                 out.append(CheckStatus(c.name, t.value, self._thresholds[c.name], c.unit, t.state, t.latched, text))
             return tuple(out)
 

@@ -20,6 +20,8 @@ FRAMES: Final = f"{PREFIX}/frames"  # /<topic> (JointCommand), /arm_sdk/weight (
 
 #: BodyReadings field -> its channel under BODY.
 BODY_READINGS: Final = {"tilt_rad": "tilt_rad", "gyro_max": "gyro_max_rad_s", "joint_speed_max": "joint_speed_max_rad_s",
+                        # what the speed checks judged: the readings less what a playing motion allows
+                        "gyro_judged": "gyro_judged_rad_s", "joint_speed_judged": "joint_speed_judged_rad_s",
                         "winding_max_c": "winding_max_c", "casing_max_c": "casing_max_c",
                         "soc_pct": "battery_soc_pct", "state_age_s": "state_age_s"}
 TILT: Final = f"{BODY}/{BODY_READINGS['tilt_rad']}"
