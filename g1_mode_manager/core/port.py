@@ -133,6 +133,9 @@ class StateSample:
     fields: BodyFields
     age_s: float
     low_rate: bool  # from rt/lf/lowstate (about 20 Hz), not rt/lowstate
+    #: when the robot published it, this process's monotonic s (from its DDS source timestamp: exact where both
+    #: share a clock, as on the sim; a robot's clock offset from this machine's adds to it); NaN: not known
+    published_s: float = float("nan")
 
 
 @dataclass(frozen=True)

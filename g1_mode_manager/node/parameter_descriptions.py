@@ -144,6 +144,8 @@ DESCRIPTIONS: dict[str, str] = {
     "policy_overrun_s": "A tick (state sample to frame) longer than this is an overrun, s; policy_max_overruns in a "
     "row are a fault of the loop.",
     "policy_max_overruns": "Overruns in a row that stop the policy (hold, then hand back).",
+    "policy_clamp_max_s": "A policy's target past its joint's range + margin is clamped there; held clamped longer "
+                          "than this, s, it stops the policy (hold, then hand back).",
     "policy_disengage": "~/policy/disengage: 'walkrun' hands the robot back to its own controller standing "
     "(SwitchToInternalCtrl WALKRUN, LOW_LEVEL -> HIGH_LEVEL); 'hold' holds the last pose in LOW_LEVEL "
     "(disengage again to hand back).",
@@ -186,6 +188,7 @@ RANGES: dict[str, tuple[float, float]] = {
     "policy_engage_max_error_rad": (0.0, 3.0),
     "policy_state_timeout_s": (0.004, 1.0),
     "policy_overrun_s": (1e-6, 1.0),
+    "policy_clamp_max_s": (0.02, 10.0),
     "recorder_window_s": (1.0, 600.0),  # memory grows with it (docs/recorder.md)
     "recorder_after_s": (0.0, 60.0),
     "recorder_max_total_mb": (1.0, 1e6),

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from g1_mode_manager.core.body.motion_allowance import MotionRecord
 from g1_mode_manager.core.controller.interface import Controller
 from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.events import RelayEvents
@@ -91,11 +92,14 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog, on_change: Ca
                                                               odom_timeout_s=s.autonomy_odom_timeout_s))
     arm = ArmRelay(port, machine, link, events, ramp_time_s=s.arm_ramp_time_s, silence_timeout_s=s.arm_cmd_timeout_s,
                    kp=s.arm_kp, kd=s.arm_kd, period_s=1.0 / s.arm_rate_hz)
-    body = BodySupervision(port, machine, events, s, on_error)
+    # what a tracking policy's motion asks for, noted by its ticks and read by the body checks
+    motion = MotionRecord()
+    body = BodySupervision(port, machine, events, s, on_error, motion)
     lowcmd = _lowcmd_relay(s, port, machine, link, events, deadman=body.watch.deadman_held)
     policy = PolicyRunner(port, machine, lowcmd, events, loader=lambda name: _load_policy(name, s),
                           limits=s.policy_limits(), velocity_limits=s.velocity_limits(),
-                          cmd_vel_timeout_s=s.cmd_vel_timeout_s, hold_gains=(s.user_ctrl_hold_kp, s.user_ctrl_hold_kd))
+                          cmd_vel_timeout_s=s.cmd_vel_timeout_s, hold_gains=(s.user_ctrl_hold_kp, s.user_ctrl_hold_kd),
+                          motion=motion)
     policy_keys = _policy_keys(s, policy, body, log)
     loco = LocoCommands(port, machine, outcome_timeout_s=s.loco_outcome_timeout_s,
                         motion_timeout_s=s.loco_motion_timeout_s, get_up_timeout_s=s.loco_get_up_timeout_s,

@@ -6,6 +6,7 @@ of the latest tick, beside the measured joints of joint_states) while the loop t
 from __future__ import annotations
 
 import traceback
+from collections import deque
 
 from g1_mode_manager_msgs.msg import PolicyStatus
 from g1_mode_manager_msgs.srv import LoadPolicy
@@ -121,4 +122,12 @@ class PolicyEndpoints:
         shadow = r.shadow
         msg.max_target_error_rad = float(abs(shadow.targets - shadow.measured).max()) if ticking else 0.0
         msg.tracking_error_rad = -1.0 if shadow.tracking_error_rad is None else shadow.tracking_error_rad
+        msg.action_scale = "" if r.controller is None else r.controller.action_scale_rule
+        ages = stats.percentiles(stats.state_to_frame_s, 50, 99, 100)
+        msg.state_to_frame_p50_ms, msg.state_to_frame_p99_ms, msg.state_to_frame_max_ms = (a * 1e3 for a in ages)
+        period = 1.0 / r.controller.rate_hz if r.controller is not None else 0.02
+        msg.frame_period_p50_ms = stats.percentiles(stats.frame_gaps_s, 50)[0] * 1e3
+        jitter = deque(abs(g - period) for g in stats.frame_gaps_s)
+        msg.frame_jitter_p99_ms, msg.frame_jitter_max_ms = (j * 1e3 for j in stats.percentiles(jitter, 99, 100))
+        msg.clamps = r.clamp.counts.tolist() if r.clamp.counts.any() else []
         return msg

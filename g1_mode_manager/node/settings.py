@@ -136,6 +136,7 @@ class Settings:
     policy_state_timeout_s: float = PolicyLimits.state_timeout_s
     policy_overrun_s: float = PolicyLimits.overrun_s
     policy_max_overruns: int = PolicyLimits.max_overruns
+    policy_clamp_max_s: float = PolicyLimits.clamp_max_s
     policy_disengage: str = PolicyLimits.disengage.value
     # the remote's keys for the policy (relay/policy_keys.py): unitree_rl_lab's G1 deploy starts its velocity policy
     # on R1+X and stands the robot on L2+Up
@@ -168,7 +169,8 @@ class Settings:
     def policy_limits(self) -> PolicyLimits:
         return PolicyLimits(blend_s=self.policy_blend_s, engage_max_error_rad=self.policy_engage_max_error_rad,
                             state_timeout_s=self.policy_state_timeout_s, overrun_s=self.policy_overrun_s,
-                            max_overruns=self.policy_max_overruns, disengage=DisengageTo(self.policy_disengage))
+                            max_overruns=self.policy_max_overruns,
+                            clamp_max_s=self.policy_clamp_max_s, disengage=DisengageTo(self.policy_disengage))
 
     def policy_models(self) -> Path:
         """Where the built-in policies' models are: ``policy_dir``, or the ones set-up extracted into the prefix."""

@@ -19,7 +19,9 @@ from enum import StrEnum
 
 import numpy as np
 
+from g1_mode_manager.core.body.motion_allowance import MotionRecord
 from g1_mode_manager.core.controller.blend import Blend
+from g1_mode_manager.core.controller.clamps import TargetClamp
 from g1_mode_manager.core.controller.interface import Command, Controller, ControllerError, JointTargets, RobotState
 from g1_mode_manager.core.controller.phases import IN_LOW_LEVEL, SENDING, TICKING, Phase, Verb, next_phase
 from g1_mode_manager.core.controller.targets import frame_of
@@ -52,6 +54,9 @@ class PolicyLimits:
     state_timeout_s: float = 0.05
     overrun_s: float = 0.02
     max_overruns: int = 3
+    #: a policy's target may stay past its joint's range + margin (clamped there) this long, s; the dances' longest
+    #: run is 0.1 s (docs/policies.md)
+    clamp_max_s: float = 0.5
     disengage: DisengageTo = DisengageTo.WALKRUN
 
 
@@ -69,8 +74,9 @@ class Shadow:
 class PolicyRunner:
     def __init__(self, port: RobotPort, machine: ModeMachine, lowcmd: LowCmdRelay, events: RelayEvents, *,
                  loader: Callable[[str], Controller], limits: PolicyLimits, velocity_limits: VelocityLimits,
-                 cmd_vel_timeout_s: float, hold_gains: tuple[float, float],
+                 cmd_vel_timeout_s: float, hold_gains: tuple[float, float], motion: MotionRecord | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
+        """``motion``: where the ticks of a tracking policy note what its motion asks (the body checks read it)."""
         self._port = port
         self._machine = machine
         self._lowcmd = lowcmd
@@ -79,6 +85,7 @@ class PolicyRunner:
         self.limits = limits
         self._clock = clock
         self._hold_gains = hold_gains
+        self._motion = motion
         self.velocity = VelocitySource(Driver.TELEOP, "cmd_vel", velocity_limits, cmd_vel_timeout_s, 0.25, clock)
         self._lock = threading.Lock()  # the phase, the controller, the blend, the hold frame
         self._verb_lock = threading.Lock()  # one lifecycle verb at a time (engage waits on the robot)
@@ -90,6 +97,7 @@ class PolicyRunner:
         self._hold: JointFrame | None = None
         self.shadow = Shadow()
         self.stats = TickStats()
+        self.clamp = TargetClamp(limits.clamp_max_s)
         self.last_fault = ""
         self.wake: Callable[[], None] = lambda: None  # the loop's worker looks now (set by whoever builds it)
         self.on_phase_change: Callable[[], None] = lambda: None  # e.g. publish the status (not under the lock)
@@ -129,8 +137,10 @@ class PolicyRunner:
                 return False, f"policy {policy!r} refused: {exc}"
             with self._lock:
                 self.controller, self.phase, self.last_fault = controller, Phase.LOADED, ""
-            self._events.log("info", "policy_load", f"policy {controller.name} loaded and checked, nothing sent")
-            return True, f"policy {controller.name} loaded at {controller.rate_hz:g} Hz; nothing sent to the robot"
+            self._events.log("info", "policy_load", f"policy {controller.name} loaded and checked, nothing sent; "
+                             f"action scale: {controller.action_scale_rule}")
+            return True, (f"policy {controller.name} loaded at {controller.rate_hz:g} Hz (action scale: "
+                          f"{controller.action_scale_rule}); nothing sent to the robot")
 
     def unload(self) -> tuple[bool, str]:
         with self._verb_lock:
@@ -148,6 +158,7 @@ class PolicyRunner:
             with self._lock:
                 self.controller.activate(self._state_or_none())
                 self.stats = TickStats()
+                self.clamp.reset()
                 self.shadow = Shadow()
                 self.phase = Phase.SHADOW
             self.wake()
@@ -279,11 +290,17 @@ class PolicyRunner:
             shown = targets.q if targets is not None else np.asarray(frame.q if frame else state.q)
             reference = controller.reference() if phase is Phase.RUNNING else None
             tracking = None if reference is None else float(np.sqrt(np.mean((state.q - reference) ** 2)))
+            speeds = controller.reference_speeds() if targets is not None and self._motion is not None else None
+            if speeds is not None:
+                self._motion.note(*speeds)  # type: ignore[union-attr]
             self.shadow = Shadow(shown.copy(), state.q.copy(), self._clock(), tracking)
         if frame is not None:
             why = self._lowcmd.submit_frame(frame)
-            if why is not None:
+            if why is None:
+                self.stats.frame_written(time.monotonic(), sample.published_s, 1.0 / controller.rate_hz)
+            else:
                 self._events.count("policy_frames_not_sent")
+                self.stats.frame_not_written()
         ended = time.perf_counter()
         if self.stats.add(dt_s, inferred - started, ended - started, self.limits.overrun_s) >= self.limits.max_overruns:
             with self._lock:
@@ -296,8 +313,7 @@ class PolicyRunner:
             return self._hold
         if phase is Phase.BLENDING and self._blend is not None:
             elapsed = self._clock() - self._blend_at
-            toward = self._ready if self._ready is not None else targets
-            assert toward is not None
+            toward = self._ready if self._ready is not None else self._clamped(targets)
             blended = self._blend.apply(toward, elapsed)
             if self._blend.weight(elapsed) >= 1.0:
                 self.phase = Phase.RUNNING
@@ -305,8 +321,18 @@ class PolicyRunner:
                     self.controller.activate(state)
                     self._ready = None
             return frame_of(blended)
+        return frame_of(self._clamped(targets))
+
+    def _clamped(self, targets: JointTargets | None) -> JointTargets:
+        """Under the lock: the policy's targets clamped into reach, each new clamp logged (raises ControllerError
+        once one is held too long)."""
         assert targets is not None
-        return frame_of(targets)
+        clamped = self.clamp.apply(targets, self._clock())
+        for i in self.clamp.started:
+            self._events.count("policy_clamps")
+            self._events.log("warn", f"policy_clamp_{i}", f"policy target of {JOINT_NAMES[i]} clamped: "
+                             f"{targets.q[i]:.3f} rad -> {clamped.q[i]:.3f} (its range + margin)")
+        return clamped
 
     def blend_progress(self) -> float:
         if self.phase is Phase.BLENDING and self._blend is not None:

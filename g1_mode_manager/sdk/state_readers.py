@@ -57,6 +57,7 @@ class LatestSample(Generic[T]):
         self._lock = threading.Lock()
         self._sample: T | None = None
         self._stamp = 0.0
+        self._published = float("nan")  # when the robot published it (its DDS source timestamp), monotonic s
         self._count = 0
         self._read_at = float("-inf")
         self._errors = 0
@@ -77,17 +78,21 @@ class LatestSample(Generic[T]):
             return None
         try:
             taken = take_serialized(reader, 4)
-            data = [d for d, info in taken if info.valid_data]
+            data = [(d, info.source_timestamp) for d, info in taken if info.valid_data]
             if not data:
                 return None
-            sample = self._decode(data[-1])
+            sample = self._decode(data[-1][0])
         except Exception:
             self._errors += 1
             if self._errors == 1:
                 _log.exception("bad sample on %s", self.topic)
             return None
         self._on_new(self._sample, sample)
-        self._sample, self._stamp, self._count = sample, time.monotonic(), self._count + len(data)
+        now = time.monotonic()
+        self._sample, self._stamp, self._count = sample, now, self._count + len(data)
+        # the writer's CLOCK_REALTIME as this process's monotonic clock: on one machine (the sim) the moment the
+        # robot published it; a robot's own clock adds its offset from this machine's
+        self._published = data[-1][1] * 1e-9 - (time.time() - now)
         return sample
 
     def _on_new(self, previous: T | None, sample: T) -> None:
@@ -100,11 +105,20 @@ class LatestSample(Generic[T]):
         mode_machine), and a 500 Hz stream would otherwise be taken and decoded for each of them.
         """
         with self._lock:
-            now = time.monotonic()
-            if now - self._read_at >= READ_GAP_S:
-                self._read_at = now
-                self._read_locked()
+            self._refresh_locked()
             return self._sample, self._stamp, self._count
+
+    def latest_published(self) -> tuple[T | None, float, float]:
+        """(sample or None, its monotonic receive time, when it was published: see ``_read_locked``), consistent."""
+        with self._lock:
+            self._refresh_locked()
+            return self._sample, self._stamp, self._published
+
+    def _refresh_locked(self) -> None:
+        now = time.monotonic()
+        if now - self._read_at >= READ_GAP_S:
+            self._read_at = now
+            self._read_locked()
 
     @property
     def count(self) -> int:

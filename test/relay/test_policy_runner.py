@@ -4,20 +4,23 @@ ends the stream at once; engage is refused on a shadow far from the measured pos
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
 
+from g1_mode_manager.core.body.motion_allowance import MotionRecord
 from g1_mode_manager.core.controller.interface import Command, JointTargets, RobotState
 from g1_mode_manager.core.controller.phases import Phase
 from g1_mode_manager.core.events import RelayEvents
+from g1_mode_manager.core.joint_commands import RANGE_MARGIN_RAD
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import StateSample
 from g1_mode_manager.core.records import Outcome
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.protocol.body_fields import BodyFields
-from g1_mode_manager.protocol.motors import NUM_JOINTS
+from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
 from g1_mode_manager.relay.policy_runner import PolicyLimits, PolicyRunner
 
 POSE = np.full(NUM_JOINTS, 0.1)
@@ -57,16 +60,20 @@ class Relay:
 
 
 class Controller:
-    name, rate_hz = "fake", 50.0
+    name, rate_hz, action_scale_rule = "fake", 50.0, "flat 1 (a fake)"
 
     def __init__(self, q: float | None = 0.1, raises: bool = False) -> None:
         self.q, self.raises = q, raises
+        self.speeds: tuple[np.ndarray, np.ndarray] | None = None
 
     def activate(self, state: RobotState | None) -> None: ...
     def deactivate(self) -> None: ...
     def progress(self) -> None: ...
     def ready(self) -> None: ...
     def reference(self) -> None: ...
+
+    def reference_speeds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        return self.speeds
 
     def step(self, state: RobotState, command: Command) -> JointTargets:
         if self.raises:
@@ -75,11 +82,13 @@ class Controller:
         return JointTargets(np.full(NUM_JOINTS, self.q), z, z, np.full(NUM_JOINTS, 40.0), np.full(NUM_JOINTS, 1.0))
 
 
-def running(controller: Controller, limits: PolicyLimits = NO_BLEND):
+def running(controller: Controller, limits: PolicyLimits = NO_BLEND, clock=time.monotonic, motion=None,
+            logged: list | None = None):
     port, machine, relay = Port(), Machine(), Relay()
-    runner = PolicyRunner(port, machine, relay, RelayEvents(lambda *_: None), loader=lambda _: controller,
+    log = (lambda level, text: logged.append((level, text))) if logged is not None else (lambda *_: None)
+    runner = PolicyRunner(port, machine, relay, RelayEvents(log), loader=lambda _: controller,
                           limits=limits, velocity_limits=LIMITS, cmd_vel_timeout_s=0.5,
-                          hold_gains=(300.0, 8.0))
+                          hold_gains=(300.0, 8.0), motion=motion, clock=clock)
     assert runner.load("fake")[0] and runner.start_shadow()[0]
     runner.tick(0.02)
     ok, why = runner.engage()
@@ -92,7 +101,6 @@ def running(controller: Controller, limits: PolicyLimits = NO_BLEND):
 @pytest.mark.parametrize(("make_bad", "why"), [
     (lambda c: setattr(c, "raises", True), "RuntimeError: a policy bug"),
     (lambda c: setattr(c, "q", float("nan")), "non-finite"),
-    (lambda c: setattr(c, "q", 100.0), "outside its range"),
 ])
 def test_a_bad_tick_stops_the_policy_sends_nothing_and_ends_the_stream(make_bad, why):
     controller = Controller()
@@ -132,3 +140,46 @@ def test_engage_is_refused_while_the_shadow_is_far_from_the_measured_pose():
     runner.tick(0.02)
     ok, why = runner.engage()
     assert not ok and "from the measured pose" in why and runner.phase is Phase.SHADOW
+
+
+def test_a_target_past_its_joints_range_is_clamped_into_range_and_margin_counted_and_logged():
+    controller = Controller()
+    logged: list = []
+    runner, _, relay = running(controller, logged=logged)
+    controller.q = 100.0
+    runner.tick(0.02)
+    assert runner.phase is Phase.RUNNING
+    knee = JOINT_NAMES.index("left_knee_joint")
+    assert relay.frames[-1][knee].q == pytest.approx(JOINT_RANGE_RAD[knee][1] + RANGE_MARGIN_RAD)
+    assert runner.clamp.clamped()["left_knee_joint"] == 1
+    assert any(level == "warn" and "left_knee_joint clamped: 100.000 rad" in text for level, text in logged)
+    controller.q = 0.1
+    runner.tick(0.02)
+    assert relay.frames[-1][knee].q == pytest.approx(0.1) and runner.clamp.clamped()["left_knee_joint"] == 1
+
+
+def test_a_target_held_past_its_range_longer_than_the_bound_stops_the_policy():
+    now = [100.0]
+    controller = Controller()
+    runner, _, relay = running(controller, limits=PolicyLimits(blend_s=0.0, clamp_max_s=0.5), clock=lambda: now[0])
+    controller.q = -5.0
+    for _ in range(25):  # 0.48 s of clamped ticks at 50 Hz: still a press against the stop
+        runner.tick(0.02)
+        now[0] += 0.02
+    assert runner.phase is Phase.RUNNING, runner.last_fault
+    sent = len(relay.frames)
+    runner.tick(0.02)  # 0.5 s
+    now[0] += 0.02
+    runner.tick(0.02)  # 0.52 s: held too long
+    assert runner.phase is Phase.LOADED and "past its range + 0.5 rad for 0.52 s" in runner.last_fault
+    assert len(relay.frames) == sent + 1 and relay.ended == 1  # the faulting tick sent nothing
+
+
+def test_a_motions_speeds_are_noted_while_the_policy_steps():
+    controller = Controller()
+    motion = MotionRecord()
+    controller.speeds = (np.full(NUM_JOINTS, 3.0), np.array([0.0, 0.0, 2.0]))
+    runner, _, _ = running(controller, motion=motion)
+    runner.tick(0.02)
+    recent = motion.recent()
+    assert recent is not None and recent.body_rates[2] == 2.0 and np.all(recent.joints == 3.0)
