@@ -43,6 +43,12 @@ UNSUPPORTED = ("this firmware does not implement user control (3203); low_level_
 #: (deploy_template: SwitchToInternalCtrl PASSIVE past them, WALKRUN within), rad.
 UPRIGHT_ROLL_RAD = 1.0
 UPRIGHT_PITCH_RAD = 0.8
+#: A hand-back decides WALKRUN or PASSIVE on the robot's last attitude no older than this, s. The state stream
+#: stopping is itself a reason to hand back: a policy stops on a sample older than policy_state_timeout_s (0.05)
+#: and its hand-back begins at once, so with a bound this far above that, a stream that stopped ends one way, the
+#: way of the robot's last attitude: upright, the robot's own controller (it has its own IMU) takes it back standing;
+#: tilted or unknown, PASSIVE and FAULT. Damping a robot that was upright a moment ago is what makes it fall.
+HAND_BACK_ATTITUDE_S = 0.5
 
 
 class UserCtrlRefused(Exception):  # noqa: N818 (named for the outcome, as Preempted)
@@ -68,8 +74,9 @@ class UserCtrlPort(Protocol):
 
     def joint_positions(self) -> Sequence[float] | None: ...
 
-    def attitude(self) -> tuple[float, float] | None:
-        """(roll, pitch) of the pelvis IMU from the newest state sample, rad; None without a fresh one."""
+    def attitude(self, max_age_s: float) -> tuple[float, float] | None:
+        """(roll, pitch) of the pelvis IMU from the newest state sample, rad; None without one at most
+        ``max_age_s`` old."""
 
     def joint_speed_max(self) -> float | None:
         """The largest |dq| of the newest state sample, rad/s; None without a fresh one."""

@@ -242,8 +242,8 @@ class RecordingUserCtrlPort(RecordingPort):
         self.inner.write_user_lowcmd(commands)
         self._frame("user_lowcmd", commands)
 
-    def attitude(self) -> tuple[float, float] | None:
-        return self.inner.attitude()
+    def attitude(self, max_age_s: float) -> tuple[float, float] | None:
+        return self.inner.attitude(max_age_s)
 
     def joint_speed_max(self) -> float | None:
         return self.inner.joint_speed_max()

@@ -37,8 +37,9 @@ _log = logging.getLogger(__name__)
 P = TypeVar("P")
 #: A rt/lowstate sample younger than this makes reading rt/lf/lowstate (20 Hz) pointless for the body checks, s.
 FRESH_STATE_S = 0.01
-#: The attitude that decides WALKRUN or PASSIVE for a hand-back comes from a sample no older than this, s.
-ATTITUDE_FRESH_S = 0.1
+#: The joints' speeds that decide whether the robot is at rest for the user-control entry come from a sample no older
+#: than this, s.
+REST_FRESH_S = 0.1
 
 
 class UnitreeRobot:
@@ -213,17 +214,17 @@ class UnitreeRobot:
     def write_user_lowcmd(self, commands: Sequence[MotorCommand]) -> None:
         self._need(self._user_lowcmd, "user_lowcmd").write(commands)
 
-    def attitude(self) -> tuple[float, float] | None:
-        """(roll, pitch) from the newest state sample no older than ATTITUDE_FRESH_S; None without one."""
+    def attitude(self, max_age_s: float) -> tuple[float, float] | None:
+        """(roll, pitch) from the newest state sample no older than ``max_age_s``; None without one."""
         sample = self.state_sample()
-        if sample is None or sample.age_s > ATTITUDE_FRESH_S:
+        if sample is None or sample.age_s > max_age_s:
             return None
         return roll_pitch(*sample.fields.quaternion)
 
     def joint_speed_max(self) -> float | None:
-        """The largest |dq| of the newest state sample no older than ATTITUDE_FRESH_S; None without one."""
+        """The largest |dq| of the newest state sample no older than REST_FRESH_S; None without one."""
         sample = self.state_sample()
-        if sample is None or sample.age_s > ATTITUDE_FRESH_S:
+        if sample is None or sample.age_s > REST_FRESH_S:
             return None
         return max(map(abs, sample.fields.dq))
 
@@ -272,15 +273,15 @@ class UnitreeRobot:
         return None if snapshot is None else (snapshot.data, count)
 
     def state_sample(self) -> StateSample | None:
-        best: tuple[bytes, float, bool] | None = None  # the freshest sample's data, age and stream
+        best: tuple[bytes, float, bool, float] | None = None  # the freshest sample's data, age, stream, publication
         now = time.monotonic()
         for reader, low_rate in ((self._lowstate, False), (self._lf_lowstate, True)):
             if reader is None or (best is not None and best[1] < FRESH_STATE_S):
                 continue  # a sample of the 500 Hz stream this fresh: the 20 Hz one cannot be newer
-            snapshot, stamp, _ = reader.latest()
+            snapshot, stamp, published = reader.latest_published()
             if snapshot is not None and (best is None or now - stamp < best[1]):
-                best = (snapshot.data, now - stamp, low_rate)
-        return None if best is None else StateSample(decode_body_fields(best[0]), best[1], best[2])
+                best = (snapshot.data, now - stamp, low_rate, published)
+        return None if best is None else StateSample(decode_body_fields(best[0]), best[1], best[2], best[3])
 
     def battery_soc(self) -> tuple[float, float] | None:
         return None if self._battery is None else self._battery.soc()

@@ -103,7 +103,7 @@ class UserCtrlRobot(FakeRobot):
     def joint_positions(self) -> Sequence[float] | None:
         return self.pose
 
-    def attitude(self) -> tuple[float, float] | None:
+    def attitude(self, max_age_s: float) -> tuple[float, float] | None:
         return self.roll_pitch
 
     def joint_speed_max(self) -> float | None:

@@ -19,6 +19,7 @@ from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.port import RobotError
 from g1_mode_manager.core.preemption import Preempted, RunPort
 from g1_mode_manager.core.user_ctrl import (
+    HAND_BACK_ATTITUDE_S,
     LATE_SWITCH_WAIT_S,
     UNSUPPORTED,
     NotUpright,
@@ -123,11 +124,12 @@ class UserCtrlSteps:
         return pose
 
     def _fresh_attitude(self, calls: RunPort) -> tuple[float, float] | None:
-        """The robot's roll and pitch, waiting at most switch_timeout_s for a fresh sample: a node starved of the
-        CPU may find its newest one a little old while the hold frames keep the robot up, and an attitude that is
-        only unknown is no reason to damp a standing robot. Still unknown after that: blind (not upright)."""
+        """The robot's roll and pitch from a sample at most HAND_BACK_ATTITUDE_S old, waiting at most
+        switch_timeout_s for one: a node starved of the CPU may find its newest one old while the hold frames keep
+        the robot up, and an attitude that is only unknown is no reason to damp a standing robot. Still unknown
+        after that: blind (not upright)."""
         deadline = self._clock() + self.config.switch_timeout_s
-        while (attitude := self.port.attitude()) is None and self._clock() < deadline:
+        while (attitude := self.port.attitude(HAND_BACK_ATTITUDE_S)) is None and self._clock() < deadline:
             calls.sleep(self.config.poll_interval_s)
         return attitude
 
