@@ -263,6 +263,17 @@ def test_a_push_tips_a_standing_robot_over_and_a_smaller_one_does_not(sim: Bridg
     assert sim.status.get()["body"]["tilt"] > 1.0
 
 
+def test_a_runaway_motor_spins_its_joint_for_its_duration_then_obeys_again(sim: Bridge) -> None:
+    elbow = 18  # left elbow: light, 3 rad of range
+    t = sim.set(faults={"runaway_motor": {"motor": elbow, "direction": -1, "duration": 0.2}})
+    fast = sim.wait_body(t, lambda e: e["dq"] > 15.0, 2.0)
+    print(f"runaway elbow: |dq| {fast['dq']:.1f} rad/s {fast['t'] - t:.3f} s (wall) after the injection")
+    assert _injections(sim, t, "runaway_motor")[0]["value"]["motor"] == elbow
+    after = sim.run_for(2.0)
+    assert max(e["dq"] for e in after[-50:]) < 1.0, "the joint did not settle under its controller again"
+    assert sim.status.get()["body"]["tilt"] < 0.3
+
+
 def test_freeze_lowstate_stops_lowstate_but_not_sportmodestate(sim: Bridge) -> None:
     io = sim.io
     sim.set(faults={"freeze_lowstate": True})

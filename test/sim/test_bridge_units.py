@@ -161,8 +161,9 @@ def test_faults_invalid_is_refused_and_previous_kept(text: str) -> None:
 def test_faults_parse_the_body_injections() -> None:
     c = parse_faults(json.dumps({"motor_temperature": {"3": [90, 130.5], "28": [20, 21]}, "battery_soc": 15,
                                  "remote_keys": ["L2", "B"], "push": {"force": 150, "direction": [0, 2], "duration": 0.3},
-                                 "freeze_lowstate": True}))
+                                 "freeze_lowstate": True, "runaway_motor": {"motor": 18, "duration": 0.2}}))
     assert c.motor_temperature == {3: (90.0, 130.5), 28: (20.0, 21.0)}
+    assert c.runaway_motor is not None and (c.runaway_motor.motor, c.runaway_motor.direction) == (18, 1)
     assert c.battery_soc == 15.0 and c.remote_keys == {"L2", "B"} and c.freeze_lowstate
     assert c.push is not None and c.push.force_xy == pytest.approx((0.0, 150.0)) and c.push.duration_s == 0.3
     angled = parse_faults('{"push": {"force": 100, "direction": 3.141592653589793, "duration": 1}}').push
@@ -186,7 +187,11 @@ def test_faults_parse_the_body_injections() -> None:
      ('{"push": {"force": 100, "direction": [1, 0], "duration": 9}}', "push.duration"),
      ('{"push": {"force": 100, "direction": [1, 0, 0], "duration": 1}}', "push.direction"),
      ('{"push": {"force": 100, "duration": 1}}', "push must be an object"),
-     ('{"freeze_lowstate": 1}', "freeze_lowstate must be true or false")],
+     ('{"freeze_lowstate": 1}', "freeze_lowstate must be true or false"),
+     ('{"runaway_motor": {"motor": 29, "duration": 0.2}}', "runaway_motor.motor"),
+     ('{"runaway_motor": {"motor": 3, "direction": 0, "duration": 0.2}}', "runaway_motor.direction"),
+     ('{"runaway_motor": {"motor": 3, "duration": 5}}', "runaway_motor.duration"),
+     ('{"runaway_motor": {"motor": 3}}', "runaway_motor must be an object")],
 )
 def test_faults_body_injections_refused_with_a_reason(text: str, why: str) -> None:
     faults = Faults(parse_faults('{"battery_soc": 50}'))

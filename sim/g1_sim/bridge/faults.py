@@ -18,6 +18,7 @@ Configured as JSON (ROS parameter ``faults``), e.g.::
      "battery_soc": 15,           # report a 15 % charge while set
      "remote_keys": ["L2", "B"],  # these keys held on the operator's remote while set
      "push": {"force": 150, "direction": [1, 0], "duration": 0.3},  # shove the pelvis, once per setting
+     "runaway_motor": {"motor": 18, "direction": 1, "duration": 0.2},  # a motor driving at its full effort, once
      "freeze_lowstate": true,     # stop rt/lowstate and rt/lf/lowstate only (everything else goes on)
      "freeze_odom": true,         # stop rt/odommodestate and rt/lf/odommodestate only (a stalled state estimator)
      # user control (sport 7110/7111, newer firmware; firmware.user_ctrl):
@@ -32,7 +33,9 @@ defaults are firmware.odometry's; setting them (or the seed) starts a fresh esti
 
 Every key is optional; a new configuration replaces the old one as a whole. ``push`` acts once each time
 a configuration holding it is set (its direction: [x, y] in the world frame, or an angle in rad from +x
-towards +y; the robot boots facing +x).
+towards +y; the robot boots facing +x). ``runaway_motor`` likewise: for ``duration`` s of sim time the motor puts out
+its full effort limit in ``direction`` (+1 or -1) whatever it is commanded, as a motor driver that ran away would
+(a flail a controller did not ask for); then it obeys its commands again.
 """
 
 from __future__ import annotations
@@ -56,8 +59,8 @@ from g1_sim.firmware.odometry import OdomErrors
 DAMP_FAILURE_CODE = ERR_CLIENT_API_TIMEOUT
 
 _KEYS = frozenset({"delay_s", "drop", "error", "pause_state", "damp_fails", "seed", "motor_temperature",
-                   "battery_soc", "remote_keys", "push", "freeze_lowstate", "freeze_odom", "ignore_fsm_ids", "odom_drift",
-                   "odom_noise_m", "user_ctrl", "user_ctrl_delay_s"})
+                   "battery_soc", "remote_keys", "push", "runaway_motor", "freeze_lowstate", "freeze_odom",
+                   "ignore_fsm_ids", "odom_drift", "odom_noise_m", "user_ctrl", "user_ctrl_delay_s"})
 #: odom_drift's keys and their bounds: signed scale errors, a creep speed.
 ODOM_DRIFT_BOUNDS: Final = {"xy_per_m": (-1.0, 1.0), "xy_mps": (0.0, 1.0), "yaw_per_rad": (-1.0, 1.0)}
 ODOM_NOISE_MAX_M: Final = 1.0
@@ -65,6 +68,7 @@ ODOM_NOISE_MAX_M: Final = 1.0
 TEMPERATURE_RANGE_C: Final = (-40.0, 200.0)
 PUSH_MAX_N: Final = 2000.0
 PUSH_MAX_S: Final = 5.0
+RUNAWAY_MAX_S: Final = 2.0
 
 
 class FaultConfigError(ValueError):
@@ -88,6 +92,18 @@ class Push:
 
 
 @dataclass(frozen=True)
+class Runaway:
+    """A motor driving at its full effort limit: motor index, direction (+1 / -1), seconds."""
+
+    motor: int
+    direction: int
+    duration_s: float
+
+    def to_json(self) -> dict[str, Any]:
+        return {"motor": self.motor, "direction": self.direction, "duration": self.duration_s}
+
+
+@dataclass(frozen=True)
 class FaultConfig:
     """One parsed faults configuration (immutable, so readers need no lock)."""
 
@@ -101,6 +117,7 @@ class FaultConfig:
     battery_soc: float | None = None
     remote_keys: frozenset[str] = frozenset()
     push: Push | None = None
+    runaway_motor: Runaway | None = None
     freeze_lowstate: bool = False
     freeze_odom: bool = False
     ignore_fsm_ids: frozenset[int] = frozenset()
@@ -120,6 +137,7 @@ class FaultConfig:
             "battery_soc": self.battery_soc,
             "remote_keys": sorted(self.remote_keys, key=KEY_NAMES.index),
             "push": None if self.push is None else self.push.to_json(),
+            "runaway_motor": None if self.runaway_motor is None else self.runaway_motor.to_json(),
             "freeze_lowstate": self.freeze_lowstate,
             "freeze_odom": self.freeze_odom,
             "ignore_fsm_ids": sorted(self.ignore_fsm_ids),
@@ -213,7 +231,8 @@ def parse_faults(text: str) -> FaultConfig:
     return FaultConfig(MappingProxyType(delay), drop, MappingProxyType(error), pause, damp_fails, seed,
                        motor_temperature=MappingProxyType(_motor_temperature(raw.get("motor_temperature", {}))),
                        battery_soc=_battery_soc(raw.get("battery_soc")), remote_keys=_remote_keys(raw.get("remote_keys", [])),
-                       push=_push(raw.get("push")), freeze_lowstate=freeze, freeze_odom=freeze_odom,
+                       push=_push(raw.get("push")), runaway_motor=_runaway(raw.get("runaway_motor")),
+                       freeze_lowstate=freeze, freeze_odom=freeze_odom,
                        ignore_fsm_ids=_fsm_ids(raw.get("ignore_fsm_ids", []), "ignore_fsm_ids"),
                        odom=_odom(raw.get("odom_drift", {}), raw.get("odom_noise_m")),
                        user_ctrl=_user_ctrl_option(raw.get("user_ctrl")),
@@ -332,6 +351,24 @@ def _push(raw: Any) -> Push | None:
     if not norm > 1e-9 or not math.isfinite(norm):
         raise FaultConfigError(f"push.direction must not be zero, got {direction!r}")
     return Push(force, (x / norm, y / norm), duration)
+
+
+def _runaway(raw: Any) -> Runaway | None:
+    if raw is None:
+        return None
+    if not isinstance(raw, dict) or not {"motor", "duration"} <= set(raw) <= {"motor", "direction", "duration"}:
+        raise FaultConfigError(f'runaway_motor must be an object {{"motor": index, "direction": 1 or -1, "duration": s}}, '
+                               f"got {raw!r}")
+    motor, direction = raw["motor"], raw.get("direction", 1)
+    if isinstance(motor, bool) or not isinstance(motor, int) or not 0 <= motor < NUM_JOINTS:
+        raise FaultConfigError(f"runaway_motor.motor must be a motor index 0..{NUM_JOINTS - 1}, got {motor!r}")
+    if direction not in (1, -1) or isinstance(direction, bool):
+        raise FaultConfigError(f"runaway_motor.direction must be 1 or -1, got {direction!r}")
+    duration = _number(raw["duration"], "runaway_motor.duration")
+    if not 0.0 < duration <= RUNAWAY_MAX_S:
+        raise FaultConfigError(f"runaway_motor.duration must be within 0..{RUNAWAY_MAX_S:g} s (not 0), got "
+                               f"{raw['duration']!r}")
+    return Runaway(motor, direction, duration)
 
 
 class Faults:

@@ -264,17 +264,21 @@ class Bridge:
             self.robot.set_odometry_errors(new.odom, new.seed)
         if new.push is not None:
             self.robot.push(new.push.force_xy, new.push.duration_s)
+        if new.runaway_motor is not None:
+            r = new.runaway_motor
+            self.robot.run_away(r.motor, r.direction, r.duration_s)
         if (new.user_ctrl, new.user_ctrl_delay_s) != (old.user_ctrl, old.user_ctrl_delay_s):
             self.robot.set_user_ctrl(new.user_ctrl or self._user_ctrl, new.user_ctrl_delay_s)
         self._record_injections(old, new)
 
     def _record_injections(self, old: Any, new: Any) -> None:
-        """One ``inject`` event per fault key that changed (``on``: it differs from no fault), and per push."""
+        """One ``inject`` event per fault key that changed (``on``: it differs from no fault), and per push or
+        runaway (each setting acts once)."""
         from g1_sim.bridge.faults import FaultConfig
 
         before, after, none = old.to_json(), new.to_json(), FaultConfig().to_json()
         for key, value in after.items():
-            if value != before[key] or (key == "push" and value is not None):
+            if value != before[key] or (key in ("push", "runaway_motor") and value is not None):
                 self.record.event("inject", what=key, on=value != none[key], value=value)
 
     def set_gantry(self, on: bool) -> None:

@@ -135,6 +135,7 @@ class FirmwareCore:
         self._ctrl: Controller = self._zero
         self._body = Body(start_soc)
         self._forces = PelvisForces(self._g1.pelvis_body)
+        self._runaway: tuple[int, float, float] | None = None  # a runaway motor: index, direction, until (sim s)
         self._forces.set_gantry(gantry, self._data)
         self._remote: frozenset[str] = frozenset()
         self._remote_damp_held = False
@@ -154,7 +155,7 @@ class FirmwareCore:
         self.counters: dict[str, int] = dict.fromkeys(
             ("set_fsm_requests", "damp_requests", "refused", "invalid_fsm", "velocity_requests",
              "arm_sdk_frames", "arm_sdk_ignored", "lowcmd_frames", "lowcmd_ignored", "falls", "remote_damps",
-             "pushes", "user_ctrl_switches", "user_ctrl_refused", "internal_ctrl_switches", "user_ctrl_ignored_calls",
+             "pushes", "runaways", "user_ctrl_switches", "user_ctrl_refused", "internal_ctrl_switches", "user_ctrl_ignored_calls",
              "user_lowcmd_frames", "user_lowcmd_ignored", "posture_ignored"), 0)
         self._fallen = posture is BootPosture.LYING  # booted on the floor: not a fall
 

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 
 from g1_mode_manager.protocol.fsm import WALKING_FSM_IDS, BalanceMode, FsmId
-from g1_mode_manager.protocol.motors import NUM_JOINTS
+from g1_mode_manager.protocol.motors import EFFORT_LIMIT_NM, NUM_JOINTS
 from g1_sim.firmware import rules
 from g1_sim.firmware.core import log
 from g1_sim.firmware.handover import Handover
@@ -40,6 +40,13 @@ class FirmwareLoop(Handover):
                 tau = self._ctrl.torques(self._s)
                 if self._arm.weight > 0.0 and self._balanced():
                     tau = self._arm.blend(tau, self._s)
+                if self._runaway is not None:
+                    motor, direction, until = self._runaway
+                    if self.time < until:
+                        tau = tau.copy()
+                        tau[motor] = direction * EFFORT_LIMIT_NM[motor]
+                    else:
+                        self._runaway = None
                 self._data.ctrl[:] = tau
                 self._forces.apply(self._data)
                 mujoco.mj_step(self._g1.model, self._data)
