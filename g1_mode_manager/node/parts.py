@@ -93,7 +93,8 @@ def build_parts(settings: Settings, port: RobotPort, log: NodeLog, on_change: Ca
     arm = ArmRelay(port, machine, link, events, ramp_time_s=s.arm_ramp_time_s, silence_timeout_s=s.arm_cmd_timeout_s,
                    kp=s.arm_kp, kd=s.arm_kd, period_s=1.0 / s.arm_rate_hz)
     # what a tracking policy's motion asks for, noted by its ticks and read by the body checks
-    motion = MotionRecord()
+    thresholds = s.body_thresholds()
+    motion = MotionRecord(thresholds["joint_speed"], thresholds["spin"])
     body = BodySupervision(port, machine, events, s, on_error, motion)
     lowcmd = _lowcmd_relay(s, port, machine, link, events, deadman=body.watch.deadman_held)
     policy = PolicyRunner(port, machine, lowcmd, events, loader=lambda name: _load_policy(name, s),

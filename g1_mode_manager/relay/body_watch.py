@@ -20,7 +20,7 @@ from typing import Protocol
 
 from g1_mode_manager.core.body.checks import Reaction, holds_upright
 from g1_mode_manager.core.body.monitor import BodyMonitor
-from g1_mode_manager.core.body.motion_allowance import Allowance, MotionRecord, MotionSpeeds, allowance
+from g1_mode_manager.core.body.motion_allowance import MotionRecord, allowance
 from g1_mode_manager.core.body.readings import BodyReadings, readings_of
 from g1_mode_manager.core.events import RelayEvents
 from g1_mode_manager.core.modes import Mode
@@ -64,7 +64,8 @@ class BodyWatch:
         self._enabled = enabled
         self._clock = clock
         self._motion = motion
-        self._still = self._allowance(None)  # what the speed checks allow while no motion plays
+        #: what the speed checks allow while no motion plays: nothing beyond the bases, and no joint past its limit
+        self._still = allowance(monitor.threshold("joint_speed"), monitor.threshold("spin"), None)
         self._lock = threading.Lock()
         self._keys = 0  # the remote's key field, as of _keys_at
         self._keys_at = float("-inf")
@@ -88,9 +89,9 @@ class BodyWatch:
             readings = BodyReadings(soc_pct=soc)
         else:
             fields = sample.fields
-            motion = None if self._motion is None else self._motion.recent()
+            allowed = None if self._motion is None else self._motion.current()
             readings = readings_of(fields, state_age_s=sample.age_s, soc_pct=soc,
-                                   allowance=self._still if motion is None else self._allowance(motion),
+                                   allowance=self._still if allowed is None else allowed,
                                    joint_base_rad_s=self.monitor.threshold("joint_speed"))
             if sample.age_s <= REMOTE_FRESH_S:
                 with self._lock:
@@ -112,9 +113,6 @@ class BodyWatch:
             self._events.log("error", "body_hold", f"body check tripped in {status.mode.name}: {', '.join(holds)}: "
                              "no new motion until ~/clear_fault")
             self._machine.hold(holds)
-
-    def _allowance(self, motion: MotionSpeeds | None) -> Allowance:
-        return allowance(self.monitor.threshold("joint_speed"), self.monitor.threshold("spin"), motion)
 
     def _posture(self, sample: StateSample | None, status: MachineStatus) -> PostureReading:
         if sample is None or sample.age_s > POSTURE_FRESH_S:

@@ -92,16 +92,18 @@ def test_a_motions_turn_is_no_spin_and_a_turn_far_beyond_it_or_about_another_axi
     assert [t.check for t in trips] == ["spin"]
 
 
-def test_the_motions_speeds_count_for_the_window_after_the_tick_that_asked_for_them() -> None:
+def test_the_motions_speeds_count_for_the_window_before_its_newest_tick_until_that_is_a_window_old() -> None:
     now = [5.0]
-    record = MotionRecord(clock=lambda: now[0])
-    assert record.recent() is None
+    record = MotionRecord(JOINT_BASE, SPIN_BASE, clock=lambda: now[0])
+    assert record.recent() is None and record.current() is None
     record.note(np.full(NUM_JOINTS, -4.0), np.array([-2.0, 0.0, 1.0]))  # directions do not matter
     now[0] += 0.02
     record.note(np.full(NUM_JOINTS, 1.0), np.array([0.5, 0.0, 3.0]))
     recent = record.recent()
     assert recent is not None and np.all(recent.joints == 4.0) and list(recent.body_rates) == [2.0, 0.0, 3.0]
+    assert record.current() == allowance(JOINT_BASE, SPIN_BASE, recent)
     now[0] = 5.0 + REFERENCE_WINDOW_S + 0.01
-    assert record.recent() is not None and np.all(record.recent().joints == 1.0)  # the older tick expired
-    now[0] = 5.02 + REFERENCE_WINDOW_S + 0.01
-    assert record.recent() is None  # the policy stopped: no allowance beyond the bases
+    record.note(np.full(NUM_JOINTS, 1.0), np.zeros(3))
+    assert np.all(record.recent().joints == 1.0)  # the first tick left the window
+    now[0] += REFERENCE_WINDOW_S + 0.01
+    assert record.recent() is None and record.current() is None  # the policy stopped: nothing beyond the bases

@@ -177,7 +177,7 @@ def test_a_target_held_past_its_range_longer_than_the_bound_stops_the_policy():
 
 def test_a_motions_speeds_are_noted_while_the_policy_steps():
     controller = Controller()
-    motion = MotionRecord()
+    motion = MotionRecord(10.0, 6.0)
     controller.speeds = (np.full(NUM_JOINTS, 3.0), np.array([0.0, 0.0, 2.0]))
     runner, _, _ = running(controller, motion=motion)
     runner.tick(0.02)

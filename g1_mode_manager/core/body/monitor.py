@@ -47,7 +47,7 @@ class _Track:
     latched: Reaction = Reaction.NONE
     latched_text: str = ""
     value: float | None = None
-    detail: str = ""  # the check's words on what it judged (Check.detail)
+    readings: BodyReadings | None = None  # the latest, for the check's words on what it judged (Check.detail)
     state: str = "no data"
 
 
@@ -66,8 +66,9 @@ class BodyMonitor:
     def threshold(self, name: str) -> float:
         return self._thresholds[name]
 
-    def text(self, check: Check, value: float, detail: str = "") -> str:
+    def text(self, check: Check, value: float, readings: BodyReadings | None = None) -> str:
         relation = ">" if check.above else "<"
+        detail = getattr(readings, check.detail) if check.detail and readings is not None else ""
         return (f"{check.name}: {value:.2f} {check.unit} {relation} {self._thresholds[check.name]:g}"
                 + (f" ({detail})" if detail else ""))
 
@@ -79,7 +80,7 @@ class BodyMonitor:
                 track = self._tracks[check.name]
                 value = getattr(readings, check.reading)
                 track.value = value
-                track.detail = getattr(readings, check.detail) if check.detail else ""
+                track.readings = readings
                 applies = upright_expected or not check.upright_only
                 over = applies and value is not None and check.trips(value, self._thresholds[check.name])
                 if over:
@@ -93,7 +94,7 @@ class BodyMonitor:
                 tripped = over and now - track.over_since >= check.debounce_s  # type: ignore[operator]
                 reaction = check.reaction(mode) if tripped else Reaction.NONE
                 if reaction >= Reaction.HOLD and reaction > track.latched:
-                    track.latched, track.latched_text = reaction, self.text(check, value, track.detail)  # type: ignore[arg-type]
+                    track.latched, track.latched_text = reaction, self.text(check, value, readings)  # type: ignore[arg-type]
                     trips.append(Trip(check.name, reaction, track.latched_text))
                 track.state = self._state(track, applies, value, over, tripped, reaction)
         return trips
@@ -118,7 +119,7 @@ class BodyMonitor:
 
     def warnings(self) -> tuple[str, ...]:
         with self._lock:
-            return tuple(self.text(c, t.value, t.detail) for c in self._checks  # type: ignore[arg-type]
+            return tuple(self.text(c, t.value, t.readings) for c in self._checks  # type: ignore[arg-type]
                          if (t := self._tracks[c.name]).state == "warn")
 
     def states(self) -> tuple[str, ...]:
@@ -131,7 +132,7 @@ class BodyMonitor:
             out = []
             for c in self._checks:
                 t = self._tracks[c.name]
-                text = t.latched_text or ("" if t.value is None else self.text(c, t.value, t.detail))
+                text = t.latched_text or ("" if t.value is None else self.text(c, t.value, t.readings))
                 out.append(CheckStatus(c.name, t.value, self._thresholds[c.name], c.unit, t.state, t.latched, text))
             return tuple(out)
 

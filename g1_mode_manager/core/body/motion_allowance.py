@@ -27,7 +27,6 @@ most 5.1 rad/s, never past the vendor's 6.
 
 from __future__ import annotations
 
-import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -89,28 +88,37 @@ def joint_detail(joint: int, speed: float, allowed: float, base_rad_s: float) ->
 
 
 class MotionRecord:
-    """The speeds a tracking policy's motion asked for, as its ticks note them (the loop's thread); ``recent`` is read
-    by the body watch's thread: the largest over the ticks of the last ``REFERENCE_WINDOW_S`` (None: no tick in the
-    window, so nothing is allowed beyond the bases)."""
+    """The speeds a tracking policy's motion asks for, as its ticks note them (the loop's thread, 50 Hz), turned
+    there into what they allow beyond the checks' bases; ``current`` is read by the body watch's thread (100 Hz) and
+    costs it no numpy: the allowance of the ticks of the last ``REFERENCE_WINDOW_S`` before the newest one, None once
+    that is more than ``REFERENCE_WINDOW_S`` old (nothing is allowed beyond the bases)."""
 
-    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, joint_base_rad_s: float, spin_base_rad_s: float,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self._bases = (joint_base_rad_s, spin_base_rad_s)
         self._clock = clock
-        self._lock = threading.Lock()
         self._ticks: deque[tuple[float, np.ndarray, np.ndarray]] = deque()
+        self._current: tuple[float, Allowance, MotionSpeeds] | None = None  # (newest tick, its allowance, speeds)
 
     def note(self, joint_speeds: np.ndarray, body_rates: np.ndarray) -> None:
         now = self._clock()
-        entry = (now, np.abs(np.asarray(joint_speeds, dtype=float)).reshape(NUM_JOINTS),
-                 np.abs(np.asarray(body_rates, dtype=float)).reshape(3))
-        with self._lock:
-            self._ticks.append(entry)
-            while self._ticks[0][0] < now - REFERENCE_WINDOW_S:
-                self._ticks.popleft()
+        self._ticks.append((now, np.abs(np.asarray(joint_speeds, dtype=float)).reshape(NUM_JOINTS),
+                            np.abs(np.asarray(body_rates, dtype=float)).reshape(3)))
+        while self._ticks[0][0] < now - REFERENCE_WINDOW_S:
+            self._ticks.popleft()
+        speeds = MotionSpeeds(np.max([j for _, j, _ in self._ticks], axis=0),
+                              np.max([r for _, _, r in self._ticks], axis=0))
+        self._current = (now, allowance(*self._bases, speeds), speeds)  # one reference: read whole by the other
+
+    def current(self) -> Allowance | None:
+        current = self._current
+        if current is None or self._clock() - current[0] > REFERENCE_WINDOW_S:
+            return None
+        return current[1]
 
     def recent(self) -> MotionSpeeds | None:
-        cut = self._clock() - REFERENCE_WINDOW_S
-        with self._lock:
-            ticks = [(joints, rate) for at, joints, rate in self._ticks if at >= cut]
-        if not ticks:
+        """The motion's largest speeds behind ``current`` (None likewise)."""
+        current = self._current
+        if current is None or self._clock() - current[0] > REFERENCE_WINDOW_S:
             return None
-        return MotionSpeeds(np.max([j for j, _ in ticks], axis=0), np.max([r for _, r in ticks], axis=0))
+        return current[2]

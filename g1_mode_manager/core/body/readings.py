@@ -22,9 +22,17 @@ class BodyReadings:
     #: motion allows that joint, and the gyro less what it allows the body; the raw readings when nothing plays
     joint_speed_judged: float | None = None
     joint_judged: int = -1  # its motor index
+    joint_judged_speed: float = 0.0  # its |dq|, rad/s
+    joint_judged_allowed: float = 0.0  # what a motion (or its velocity limit) allowed it beyond the base, rad/s
+    joint_base_rad_s: float = 0.0  # the joint-speed check's base bound
     gyro_judged: float | None = None
-    #: the joint-speed check's words on the joint it judged, when a motion or a joint's limit moved its bound
-    joint_speed_detail: str = ""
+
+    @property
+    def joint_speed_detail(self) -> str:
+        """The joint-speed check's words on the joint it judged, when a motion or a joint's limit moved its bound
+        (made only when a text is: not for every step)."""
+        return joint_detail(self.joint_judged, self.joint_judged_speed, self.joint_judged_allowed,
+                            self.joint_base_rad_s)
     winding_max_c: float | None = None
     winding_hottest: int = -1
     casing_max_c: float | None = None
@@ -64,7 +72,9 @@ def readings_of(fields: BodyFields, *, state_age_s: float | None, soc_pct: float
         joint_speed_judged=judged[worst],
         joint_judged=worst,
         gyro_judged=gyro_judged,
-        joint_speed_detail=joint_detail(worst, speeds[worst], allowance.joints[worst], joint_base_rad_s),
+        joint_judged_speed=speeds[worst],
+        joint_judged_allowed=allowance.joints[worst],
+        joint_base_rad_s=joint_base_rad_s,
         winding_max_c=float(winding[hottest_winding]),
         winding_hottest=hottest_winding,
         casing_max_c=float(casing[hottest_casing]),
