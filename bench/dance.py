@@ -7,7 +7,8 @@ engage by user control; the clip plays to its end (or a fall, or the node stops 
 RMS joint error against the motion's own reference (``~/policy/status``), the pelvis height and torso tilt (the
 sim's), the sim's real-time factor. Per run, ``DANCE ...`` (the verdict), ``LOOP ...`` (timing: the node's state ->
 frame written, from its status; the frames' period and jitter on arrival, the wire and the time to applied, from the
-sim's record) and ``PLAYBACK ...`` (the zero-latency run, after the sim stopped). The node's state -> frame comes from
+sim's record: the jitter of the frames as the node wrote them, as the sim's DDS delivered them and as it applied them)
+and ``PLAYBACK ...`` (the zero-latency run, after the sim stopped). The node's state -> frame comes from
 its ``~/policy/status`` every half second, each over its last 500 ticks: the median of their p50s, the largest of their
 p99s and maxima.
 
@@ -37,6 +38,7 @@ os.environ["ROS_DOMAIN_ID"] = str(_ROS_DOMAIN)
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
 from bench.dance_playback import play  # noqa: E402
+from harness.clip import lowest_reference_m  # noqa: E402
 from harness.mode_manager import RosClient, start_mode_manager  # noqa: E402
 from harness.processes import restore_sigint  # noqa: E402
 from harness.sim_bridge import shared_sim_status, start_sim_bridge  # noqa: E402
@@ -65,24 +67,6 @@ class Run:
     fault: str = ""
     standing_after: bool = False
     mode: str = ""
-
-
-def lowest_reference_m(policy: str) -> float:
-    """The lowest the clip's reference body goes (``ref_pos_xyz``'s z over its every time step), m."""
-    import onnxruntime as ort
-
-    from g1_mode_manager.node.settings import POLICY_MODELS
-    from g1_mode_manager.policy.loader import load_policy
-    from g1_mode_manager.policy.motion_tracking import MotionTrackingController
-
-    models = Path(sys.prefix) / POLICY_MODELS
-    controller = load_policy(policy, models)
-    assert isinstance(controller, MotionTrackingController), f"{policy} is not a tracking policy"
-    session = ort.InferenceSession(str(controller.model_path), providers=["CPUExecutionProvider"])
-    width = {i.name: i.shape[1] for i in session.get_inputs()}["obs"]
-    obs = np.zeros((1, width), dtype=np.float32)
-    return min(float(session.run(["ref_pos_xyz"], {"obs": obs, "time_step": np.array([[t]], dtype=np.float32)})[0][0, 2])
-               for t in range(controller.motion_steps + 1))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -226,9 +210,13 @@ def _report(run: Run, record: SimRecord, floor_z: float) -> None:
     # the policy's frames while it ran: the ones after the engage's blend (its ready gains) at its own stiffness
     kp = statistics.mode([e["kp_max"] for e in frames]) if frames else 0.0
     policy = [e for e in frames if e["kp_max"] == kp]
+    def jitter_of(key: str) -> np.ndarray:
+        gaps = np.diff([e[key] for e in policy if e.get(key) is not None]) * 1e3
+        return np.abs(gaps[gaps < 40.0] - 20.0)  # a pause of the loop's (a hold) is not a period
+
     gaps = np.diff([e["t"] for e in policy]) * 1e3
-    gaps = gaps[gaps < 40.0]  # a pause of the loop's (a hold) is not a period
-    jitter = np.abs(gaps - 20.0)
+    gaps = gaps[gaps < 40.0]
+    jitter, written, applied_jitter = jitter_of("t"), jitter_of("src"), jitter_of("ap")
     wire = np.array([(e["t"] - e["src"]) * 1e3 for e in policy if e.get("src") is not None])
     applied = np.array([(e["ap"] - e["src"]) * 1e3 for e in policy if e.get("src") is not None])
     s2f = np.array(run.state_to_frame) if run.state_to_frame else np.zeros((1, 3))
@@ -239,6 +227,7 @@ def _report(run: Run, record: SimRecord, floor_z: float) -> None:
     print(f"LOOP policy={run.policy} frames={len(policy)} state_to_frame_p50_ms={np.median(s2f[:, 0]):.2f} "
           f"state_to_frame_p99_ms={s2f[:, 1].max():.2f} state_to_frame_max_ms={s2f[:, 2].max():.2f} "
           f"period_p50_ms={q(gaps, 50):.2f} jitter_p99_ms={q(jitter, 99):.2f} jitter_max_ms={q(jitter, 100):.2f} "
+          f"written_jitter_p99_ms={q(written, 99):.2f} applied_jitter_p99_ms={q(applied_jitter, 99):.2f} "
           f"wire_p99_ms={q(wire, 99):.2f} to_applied_p99_ms={q(applied, 99):.2f} to_applied_max_ms={q(applied, 100):.2f}",
           flush=True)
 

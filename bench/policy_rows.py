@@ -19,6 +19,13 @@ MODEL = Path(sys.prefix, "share", "g1_mode_manager", "sim_assets", "policy", "pp
 PERIOD_S = 0.02
 
 
+def to_applied(events: list[dict], since: float, until: float) -> list[float]:
+    """Each policy frame's write (its DDS source timestamp) to the robot's applying it, s, from the sim's record."""
+    return [e["ap"] - e["src"] for e in events
+            if e.get("k") == "frame" and e.get("topic") == "user_lowcmd" and since <= e["t"] <= until
+            and e.get("kp_max", 0.0) > 90.0 and e.get("src") is not None]
+
+
 def frame_gaps(events: list[dict], since: float, until: float) -> list[float]:
     """|gap - 20 ms| between consecutive rt/user_lowcmd frames at the robot in [since, until] (accepted or not:
     the standalone loop's frames are ignored by a robot not in user control, their arrival still counts)."""
@@ -60,7 +67,9 @@ def policy_rows(bench, sim, start_node: Callable, stop_node: Callable, cpu_perce
         time.sleep(3.0)  # the blend, then the policy alone
         t0 = time.monotonic()
         node_cpu = cpu_percent(node.proc.pid, seconds)
-        gaps = stats(frame_gaps(sim.events(t0), t0, time.monotonic()))
+        t1 = time.monotonic()
+        gaps = stats(frame_gaps(sim.events(t0), t0, t1))
+        applied = stats(to_applied(sim.events(t0), t0, t1))
         running = [s for s in statuses if s.phase == "running"]
         assert running, f"the policy is {statuses[-1].phase if statuses else 'unknown'}: {statuses[-1].last_fault}"
         status = running[-1]
@@ -81,9 +90,16 @@ def policy_rows(bench, sim, start_node: Callable, stop_node: Callable, cpu_perce
               f"{status.inference_p99_ms:.2f} / {status.tick_p99_ms:.2f} ms, {status.rate_hz:.1f} Hz, "
               f"{status.overruns} overruns"),
              ("  standalone loop: inference (observation + run)", raw_inference.text()),
+             (f"{POLICY} in the node: the state's publication -> its frame written, p50 / p99 / max (status, last "
+              "500 ticks)", f"{status.state_to_frame_p50_ms:.2f} / {status.state_to_frame_p99_ms:.2f} / "
+              f"{status.state_to_frame_max_ms:.2f} ms"),
+             (f"{POLICY} in the node: frame written -> applied by the robot (its record)", applied.text()),
              (f"{POLICY} in the node: |gap - 20 ms| between frames at the robot", gaps.text()),
              ("  standalone loop: |gap - 20 ms| between frames at the robot", raw_gaps.text())]
     summary.update(policy_50hz_pct=node_cpu, raw_policy_50hz_pct=raw["cpu_pct"],
                    policy_inference_p99_ms=status.inference_p99_ms, raw_policy_inference_p99_ms=raw_inference.p99(),
-                   policy_jitter_p99_ms=gaps.p99(), raw_policy_jitter_p99_ms=raw_gaps.p99())
+                   policy_jitter_p99_ms=gaps.p99(), raw_policy_jitter_p99_ms=raw_gaps.p99(),
+                   policy_state_to_frame_p99_ms=status.state_to_frame_p99_ms,
+                   policy_state_to_frame_max_ms=status.state_to_frame_max_ms,
+                   policy_to_applied_p99_ms=applied.p99())
     return rows, summary

@@ -127,7 +127,8 @@ def policy_status(runner: PolicyRunner, hardware_id: str) -> DiagnosticStatus:
     st.values = [_kv("policy", name), _kv("phase", runner.phase.value), _kv("rate_hz", f"{stats.rate_hz():.1f}"),
                  _kv("inference_p99_ms", f"{stats.p99(stats.inference_s) * 1e3:.2f}"),
                  _kv("tick_p99_ms", f"{stats.p99(stats.tick_s) * 1e3:.2f}"), _kv("overruns", stats.overruns),
-                 _kv("last_fault", runner.last_fault)]
+                 _kv("last_fault", runner.last_fault),
+                 _kv("clamped", ", ".join(f"{j} {n}" for j, n in runner.clamp.clamped().items()))]
     return st
 
 

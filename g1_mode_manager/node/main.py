@@ -24,6 +24,9 @@ import threading
 from g1_mode_manager.help_flag import wants_help
 from g1_mode_manager.node.one_dds_stack import refusal_from_environment, second_dds_stack
 
+#: How long a thread holding the GIL keeps it while another waits for it, s (Python's default: 0.005).
+SWITCH_INTERVAL_S = 0.001
+
 #: Exit status of a refused start (a configuration error, not a crash).
 REFUSED = 2
 
@@ -56,6 +59,10 @@ def main(args: list[str] | None = None) -> None:
 
     from g1_mode_manager.node.mode_manager import ModeManagerNode
 
+    # A thread that wants the GIL back (the policy loop after onnxruntime's inference or a DDS write, each of which lets
+    # it go) waits until the thread holding it is made to let go: 5 ms by default. Measured on the dances beside the
+    # sim, the frames' jitter p99 went from 1.8-2.2 ms to 0.9-1.5 ms at 1 ms (docs/figures.md).
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     refusal = second_dds_stack(get_rmw_implementation_identifier())  # a default RMW other than Fast DDS
     if refusal:

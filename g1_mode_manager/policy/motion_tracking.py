@@ -224,6 +224,7 @@ class MotionTrackingController:
         self._step = 0
         self.start_hold_s = config.start_hold_s
         self.model_path = config.model
+        self.policy_kp = config.kp  # the gains of its own frames (the engage's blend uses the ready ones)
         self._hold_ticks = round(config.start_hold_s * config.rate_hz)
         self._held = 0  # ticks run at the first time step since activation
 
