@@ -9,14 +9,15 @@ import json
 import time
 
 import pytest
+from g1_mode_manager_msgs.msg import Mode as ModeMsg
 
 from e2e.test_policy import POLICY_KP_MAX, STEADY_POLICY, engage, statuses
-from e2e.user_ctrl_session import HOLD_KP, frames_on, fsm_states
+from e2e.user_ctrl_session import HOLD_KP, STANDING_Z_M, USER_CTRL, frames_on, fsm_states
 from g1_mode_manager.protocol import api_ids as api
 from g1_mode_manager.protocol.fsm import STANDING_FSM_IDS, InternalCtrl
 from support import faulty_policies
 from support.mode_manager import wait_until
-from support.sim_record import requests
+from support.sim_record import is_damp, of_kind, requests
 from support.timing import POLICY_OVERRUN_TEST_S, RECORD_WAIT_S
 
 pytestmark = [pytest.mark.e2e, pytest.mark.policy_faults]
@@ -92,23 +93,34 @@ def test_a_policy_that_fails_mid_walk_is_stopped_and_the_robot_handed_back(share
     print(f"handed back with {InternalCtrl(handed_back_by_the_rules(stack, since)).name}")
 
 
-def test_a_frozen_state_stream_mid_walk_stops_the_policy_and_the_robot_is_handed_back(shared_stack_factory) -> None:
+def test_a_frozen_state_stream_mid_walk_ends_one_way_with_the_default_parameters(shared_stack_factory) -> None:
+    """Every parameter at its default (user control): the stream stops, the policy stops on a sample older than
+    policy_state_timeout_s, the robot is held, and the hand-back, decided by the robot's last attitude (upright, at
+    most HAND_BACK_ATTITUDE_S old), gives it back to its walk-run controller: LOW_LEVEL -> IDLE, no FAULT, no Damp,
+    standing. Judged on the sim's record; /diagnostics says why the policy stopped."""
     from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
-    stack = shared_stack_factory(node_params=STEADY_POLICY)
+    stack = shared_stack_factory(node_params=(USER_CTRL,))
+    stack.modes()  # subscribed from the start
     diagnostics: list = []
     stack.ros.node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 10)
     engage(stack, shadow_s=1.0)
     stack.drive_sim_time(0.4, 1.0)
     since = time.monotonic()
     stack.set_faults({"freeze_lowstate": True})
+    frozen = next(e["t"] for e in of_kind(stack.record.events(since), "inject") if e["what"] == "freeze_lowstate")
     assert wait_until(lambda: statuses(stack)[-1].phase == "loaded", RECORD_WAIT_S)
     why = statuses(stack)[-1].last_fault
     print(f"the loop stopped the policy: {why}")
     assert "state sample" in why
-    target = handed_back_by_the_rules(stack, since)
-    # without a fresh sample the hand-back cannot see the robot upright: it takes it for a fall
-    print(f"handed back with {InternalCtrl(target).name}")
+    assert handed_back_by_the_rules(stack, since) == InternalCtrl.WALKRUN
+    ev = stack.record.events(since)
+    switch = next(e for e in requests(ev, api.LOCO_SWITCH_TO_INTERNAL_CTRL))
+    print(f"freeze -> SwitchToInternalCtrl(WALKRUN) on the record: {(switch['t'] - frozen) * 1e3:.0f} ms")
+    assert wait_until(lambda: fsm_states(stack.record.events(since))[-1][1] in STANDING_FSM_IDS, RECORD_WAIT_S)
+    assert not [e for e in requests(stack.record.events(since)) if is_damp(e)], "the robot was damped"
+    assert wait_until(lambda: stack.modes()[-1].mode == ModeMsg.IDLE, RECORD_WAIT_S), stack.modes()[-1]
+    assert stack.sim.get()["body"]["pelvis_z"] > STANDING_Z_M, "the robot did not stand under its own controller"
 
     def policy_warns() -> bool:
         return any(st.name == "g1_mode_manager: policy" and st.level == DiagnosticStatus.WARN
