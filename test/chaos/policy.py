@@ -21,8 +21,9 @@ from support.sim_record import Event
 
 #: Phases of ~/policy/status in which a policy is at work.
 AT_WORK = frozenset({"shadow", "engaging", "blending", "running", "holding", "disengaging"})
-#: The policies a scenario loads (both walk; the dances' stiff start-up would need a robot standing on the ground).
-POLICIES = ("loco_ppo", "loco_fastsac")
+#: The policies a scenario loads: the two walkers and the two dances (a tracking policy's engage blends the robot to its
+#: ready pose under stiff gains, then its clip plays whatever the noise does: its frames are judged as the walkers').
+POLICIES = ("loco_ppo", "loco_fastsac", "dance_ppo", "dance_fastsac")
 #: The noise's lifecycle verbs, with their weights: a load and a shadow are needed before anything else applies.
 NOISE_VERBS = ("load", "load", "shadow", "shadow", "engage", "engage", "disengage", "hold", "unload")
 #: The shadow runs this long before the setup engages, s: its targets must be fresh to be compared with the robot.
