@@ -3,7 +3,8 @@ yours to drive.
 
 Starts the MuJoCo sim bridge, the mode_manager node and the console (a web page) as three processes on
 loopback, walks the robot through HIGH_LEVEL -> Start -> cmd_vel -> LOW_LEVEL by user control -> handed back ->
-walking again -> walking under the locomotion policy in the node's own loop -> E-STOP (``--release``: LOW_LEVEL by
+walking again -> walking under the locomotion policy in the node's own loop -> a stretch of holosoma's dance in the
+same loop -> E-STOP (``--release``: LOW_LEVEL by
 ReleaseMode, limp) while printing what happens, then keeps them running for the console's page and `g1ctl` in
 another terminal until Ctrl-C. The console is only a
 client of the node: if it cannot start (its port taken), the rest runs on without it.
@@ -100,7 +101,7 @@ class _ModePrinter:
 
 def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
     """HIGH_LEVEL, Start, walk 0.5 m/s for 4 s, stop by watchdog, LOW_LEVEL (by user control, or ``release``), the
-    locomotion policy in the node's loop walked and disengaged (user control only), E-STOP.
+    locomotion policy in the node's loop walked and disengaged, a stretch of the dance (user control only), E-STOP.
     Returns True if all went as expected."""
     odom = _odom_xy(client)
     client.on_mode(_ModePrinter())
@@ -136,6 +137,7 @@ def scripted_tour(client: ManagerClient, release: bool = False) -> bool:
     else:
         _user_ctrl_and_back(client, step, odom)
         _policy_walk(client, step, odom)
+        _policy_dance(client, step)
         r = client.estop()
         step("E-STOP (Damp verified)", r.success, r.message)
     r = client.set_mode("idle")
@@ -192,6 +194,35 @@ def _policy_walk(client: ManagerClient, step, odom) -> None:
         step("cmd_vel 0.5 m/s for 4 s under the node's policy", math.dist(start, moved) > 1.0,
              f"walked {math.dist(start, moved):.2f} m")
     time.sleep(1.0)
+    r = client.trigger("policy/disengage", 30.0)
+    step("policy disengage (the robot's own controller takes it back standing)", r.success, r.message)
+
+
+#: The dance the tour plays a stretch of, and how much of its clip, s.
+DANCE = "dance_ppo"
+DANCE_STRETCH_S = 20.0
+
+
+def _policy_dance(client: ManagerClient, step) -> None:
+    """A stretch of holosoma's dance (a whole-body tracking policy) in the node's loop: loaded (the action scale its
+    model was trained with), shadowed, engaged, played, disengaged back to the robot's own controller standing."""
+    time.sleep(2.5)  # the walker's hand-back settles: the user-control entry waits for the robot at rest
+    r = client.load_policy(DANCE)
+    step(f"policy load {DANCE}", r.success, r.message)
+    r = client.trigger("policy/shadow")
+    step(f"policy shadow {DANCE}", r.success, r.message)
+    time.sleep(1.0)
+    r = client.trigger("policy/engage", 30.0)
+    step(f"policy engage {DANCE} (user control, the ready pose, then the clip)", r.success, r.message)
+    deadline = time.monotonic() + 0.5 + 2.0 + DANCE_STRETCH_S  # the blend, the start hold, the stretch
+    while time.monotonic() < deadline and (s := client.policy_status()) is not None and s.phase != "loaded":
+        time.sleep(0.5)
+    s = client.policy_status()
+    dancing = s is not None and s.phase == "running"
+    detail = "no ~/policy/status" if s is None else (
+        f"{s.progress * 100:.1f} % of the clip, RMS joint error {s.tracking_error_rad:.3f} rad against its reference, "
+        f"{sum(s.clamps)} targets clamped at a joint's stop" if dancing else f"{s.phase}: {s.last_fault}")
+    step(f"{DANCE_STRETCH_S:g} s of the dance under the node's policy", dancing, detail)
     r = client.trigger("policy/disengage", 30.0)
     step("policy disengage (the robot's own controller takes it back standing)", r.success, r.message)
 

@@ -7,7 +7,7 @@ import threading
 import time
 
 import rclpy
-from g1_mode_manager_msgs.msg import Mode, SportModeState
+from g1_mode_manager_msgs.msg import Mode, PolicyStatus, SportModeState
 from g1_mode_manager_msgs.srv import LoadPolicy, LocoCommand, SetMode
 from geometry_msgs.msg import Twist
 from rcl_interfaces.srv import GetParameters
@@ -69,9 +69,11 @@ class ManagerClient:
         self._lock = threading.Lock()
         self.last_mode: Mode | None = None
         self.last_sport: SportModeState | None = None
+        self.last_policy: PolicyStatus | None = None
         self._mode_listeners: list = []
         self.node.create_subscription(Mode, f"{self.manager}/mode", self._on_mode, MODE_QOS)
         self.node.create_subscription(SportModeState, f"{self.manager}/sportmodestate", self._on_sport, 10)
+        self.node.create_subscription(PolicyStatus, f"{self.manager}/policy/status", self._on_policy, MODE_QOS)
         self.cmd_vel = self.node.create_publisher(Twist, cmd_vel_topic(self.manager), 10)
 
     def close(self) -> None:
@@ -96,6 +98,15 @@ class ManagerClient:
     def _on_sport(self, msg: SportModeState) -> None:
         with self._lock:
             self.last_sport = msg
+
+    def _on_policy(self, msg: PolicyStatus) -> None:
+        with self._lock:
+            self.last_policy = msg
+
+    def policy_status(self) -> PolicyStatus | None:
+        """The latest ~/policy/status (2 Hz while the loop ticks, and at each change of phase), or None."""
+        with self._lock:
+            return self.last_policy
 
     def on_mode(self, listener) -> None:
         with self._lock:
