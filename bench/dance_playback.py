@@ -5,7 +5,9 @@ step (zero-order hold), as the sim applies a frame. What the node adds (a state 
 DDS both ways) is what ``bench.dance`` measures beside this.
 
 Flow as the node's: the robot stands in the sim's standing keyframe, the ready pose held under the ready gains for
-``--ready-s``, then the policy (its start hold, then the clip) to the clip's end plus ``--after-s``.
+``--ready-s``, then the policy (its start hold, then the clip) to the clip's end plus ``--after-s``. With
+``--from-walker S`` the robot starts as the node starts it: the sim's own walker walks it S s at 0.4 m/s and stands it
+2 s, then the engage's blend (0.5 s) takes it to the ready pose.
 
     .venv/bin/python -m bench.dance_playback [--policy dance_fastsac] [--runs 1] [--latency-ms 0]
 
@@ -28,16 +30,24 @@ import numpy as np
 
 from g1_mode_manager.core.controller.interface import Command, RobotState
 from g1_mode_manager.core.joint_commands import RANGE_MARGIN_RAD
+from g1_mode_manager.core.user_ctrl import UserCtrlConfig
 from g1_mode_manager.node.settings import POLICY_MODELS
 from g1_mode_manager.policy.loader import load_policy
 from g1_mode_manager.policy.motion_tracking import MotionTrackingController
 from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
-from g1_sim.physics.controllers import pd
-from g1_sim.physics.model import QPOS0, QVEL0, TIMESTEP_S, build_model
+from g1_sim.physics.controllers import LocomotionController, Sensed, pd
+from g1_sim.physics.model import QPOS0, QVEL0, TIMESTEP_S, G1Model, build_model
+from g1_sim.physics.policy import LocomotionPolicy
 
 #: Fallen: the pelvis below this height, m, or the body's z axis this far from vertical, rad (terminations.hpp).
 FALLEN_Z_M = 0.4
 FALLEN_TILT_RAD = 1.0
+#: The sim's own walker (its walk-run controller's model) and the node's engage blend (policy_blend_s), s.
+WALKER_MODEL = "ppo_g1_29dof.onnx"
+BLEND_S = 0.5
+#: The user-control entry's hand-over frame holds the robot this long before the blend begins, s (the switch and its
+#: fsm 1000 seen; the sim's user_ctrl_delay_s is 0.05 of sim time).
+HAND_OVER_S = 0.1
 _LOW = np.array([r[0] for r in JOINT_RANGE_RAD]) - RANGE_MARGIN_RAD
 _HIGH = np.array([r[1] for r in JOINT_RANGE_RAD]) + RANGE_MARGIN_RAD
 
@@ -54,6 +64,7 @@ class Playback:
     past_by: float = 0.0  # the most past, rad
     past_joint: str = ""
     past_run: int = 0  # the most ticks in a row one joint's target stayed past its range + margin
+    first_past: str = ""  # when (s after the policy started) and which joint's target first went past
     speed_over_ref: float = 0.0  # the largest |dq| - |reference dq| over the ticks, rad/s
     speed: float = 0.0  # the largest |dq|, rad/s
 
@@ -64,6 +75,7 @@ class Playback:
                 f"rms_err_median={med:.3f} rms_err_max={max(self.errors, default=float('nan')):.3f} "
                 f"lowest_pelvis_z={self.lowest_z:.3f} max_tilt={self.worst_tilt:.3f} past_stop_ticks={self.past_stops} "
                 f"past_stop_most={self.past_by:.3f} past_stop_joint={self.past_joint or '-'} past_stop_run={self.past_run} "
+                f"first_past={self.first_past or '-'} "
                 f"max_dq={self.speed:.2f} max_dq_over_reference={self.speed_over_ref:.2f}")
 
 
@@ -72,8 +84,34 @@ def _tilt(quat_wxyz: np.ndarray) -> float:
     return float(np.arccos(np.clip(1.0 - 2.0 * (x * x + y * y), -1.0, 1.0)))
 
 
+def _from_walker(g1: G1Model, data: mujoco.MjData, walk_s: float, ready_q: np.ndarray, ready_kp: np.ndarray,
+                 ready_kd: np.ndarray) -> None:
+    """The robot as the node finds it: the sim's walker walks it ``walk_s`` at 0.4 m/s and stands it 2 s; the
+    user-control entry holds the measured pose (its hand-over frame, ``HAND_OVER_S``), then the engage's blend
+    (0.5 s) takes it to the ready pose under the ready gains, one frame per 50 Hz tick, as the node's loop sends it."""
+    s = Sensed(g1, data)
+    walker = LocomotionController(LocomotionPolicy(Path(sys.prefix) / POLICY_MODELS / WALKER_MODEL))
+    walker.reset(s)
+    for k in range(round((walk_s + 2.0) / TIMESTEP_S)):
+        walker.command[:] = (0.4, 0.0, 0.0) if k * TIMESTEP_S < walk_s else 0.0
+        data.ctrl[:NUM_JOINTS] = walker.torques(s)
+        mujoco.mj_step(g1.model, data)
+    zeros, hold = np.zeros(NUM_JOINTS), s.q.copy()
+    kp, kd = np.full(NUM_JOINTS, UserCtrlConfig.hold_kp), np.full(NUM_JOINTS, UserCtrlConfig.hold_kd)
+    for _ in range(round(HAND_OVER_S / TIMESTEP_S)):
+        data.ctrl[:NUM_JOINTS] = pd(hold, zeros, zeros, kp, kd, s.q, s.dq)
+        mujoco.mj_step(g1.model, data)
+    start, ticks, per_tick = s.q.copy(), round(BLEND_S * 50), round(0.02 / TIMESTEP_S)
+    for tick in range(ticks):
+        target = start + (tick + 1) / ticks * (ready_q - start)
+        for _ in range(per_tick):
+            data.ctrl[:NUM_JOINTS] = pd(target, zeros, zeros, ready_kp, ready_kd, s.q, s.dq)
+            mujoco.mj_step(g1.model, data)
+
+
 def play(policy: str, *, latency_ms: float = 0.0, ready_s: float = 1.0, after_s: float = 1.0,
-         clamp: bool = False, seconds: float | None = None, seed: int = 0) -> Playback:
+         clamp: bool = False, seconds: float | None = None, seed: int = 0, from_walker_s: float | None = None
+         ) -> Playback:
     g1 = build_model()
     model, data = g1.model, mujoco.MjData(g1.model)
     g1.reset(data)
@@ -83,6 +121,9 @@ def play(policy: str, *, latency_ms: float = 0.0, ready_s: float = 1.0, after_s:
     if not isinstance(controller, MotionTrackingController):
         raise SystemExit(f"{policy} is not a tracking policy")
     ready = controller.ready()
+    if from_walker_s is not None:
+        _from_walker(g1, data, from_walker_s, ready.q, ready.kp, ready.kd)
+        ready_s = 0.0
     per_tick = round(1.0 / (controller.rate_hz * TIMESTEP_S))
     delay = round(latency_ms * 1e-3 / TIMESTEP_S)
     gyro = g1.gyro_adr
@@ -106,6 +147,9 @@ def play(policy: str, *, latency_ms: float = 0.0, ready_s: float = 1.0, after_s:
             out.errors.append(float(np.sqrt(np.mean((state.q - reference) ** 2))))
             over = np.maximum(targets.q - _HIGH, _LOW - targets.q)
             runs = np.where(over > 0.0, runs + 1, 0)
+            if over.max() > 0.0 and not out.first_past:
+                joint = int(np.argmax(over))
+                out.first_past = f"{(step - ready_steps) * TIMESTEP_S:.2f}s:{JOINT_NAMES[joint]}:{targets.q[joint]:.3f}"
             out.past_run = max(out.past_run, int(runs.max()))
             if over.max() > 0.0:
                 out.past_stops += 1
@@ -138,10 +182,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--ready-s", type=float, default=1.0, help="the ready pose held this long first, s")
     parser.add_argument("--seconds", type=float, default=None, help="stop this long after the policy starts, s")
     parser.add_argument("--clamp", action="store_true", help="clamp targets into range + margin (the node's loop)")
+    parser.add_argument("--from-walker", type=float, default=None, metavar="S",
+                        help="start as the node does: the sim's walker walks S s, stands 2 s, then the engage's blend")
     args = parser.parse_args(argv)
     for seed in range(args.runs):
         print(play(args.policy, latency_ms=args.latency_ms, ready_s=args.ready_s, clamp=args.clamp,
-                   seconds=args.seconds, seed=seed).line(), flush=True)
+                   seconds=args.seconds, seed=seed, from_walker_s=args.from_walker).line(), flush=True)
     return 0
 
 
