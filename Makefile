@@ -64,8 +64,9 @@ ros-build: setup
 chaos-ci: setup
 	G1_CHAOS_N=18 G1_CHAOS_SEED=7012 G1_CHAOS_PARTS=1 $(BIN)/python -m pytest -q test/chaos/test_chaos.py
 
-# Policies made to fail mid-walk on the sim (non-finite, slow, a frozen state stream), each judged on the record:
-# three more sims' worth of walking that the suite's four workers on two cores do not carry (figures in docs/).
+# Policies made to fail mid-walk on the sim (non-finite, slow, a frozen state stream with every default), each judged
+# on the record: three more sims' worth of walking that the suite's four workers on two cores do not carry (figures in
+# docs/). CI runs this after make test.
 policy-faults: setup
 	$(BIN)/python -m pytest -q -s -m policy_faults test/e2e/test_policy_faults.py
 
@@ -76,10 +77,11 @@ run: setup
 bench: setup
 	$(BIN)/python -m bench.run
 
-# The reaction goals of test/support/timing.py (the tests marked latency_only run here only: the e-stop mid-dance and
-# the keep-alive's intervals, two more sims' worth of the suite's load) (LOW_LEVEL damping frames within 50 ms of a body check's condition on
+# The reaction goals of test/support/timing.py (LOW_LEVEL damping frames within 50 ms of a body check's condition on
 # the robot, the remote's L2+B within 100 ms, answers that do not wait for a held Move...), asserted alone on the
-# machine: the suite, which loads both cores, prints them and asserts order and outcome.
+# machine: the suite, which loads both cores, prints them and asserts order and outcome. The tests marked
+# latency_only run here only (the dances: a stretch of each, a flail and an e-stop mid-dance; the keep-alive's
+# intervals): more sims' worth of dancing than the suite's load carries. CI runs this after make test.
 LATENCY_TESTS := test/e2e/test_body.py test/e2e/test_held_move.py test/e2e/test_windows.py test/e2e/test_loco_outcome.py \
 	test/e2e/test_user_ctrl.py test/e2e/test_drivers.py test/e2e/test_policy.py test/e2e/test_policy_dance.py
 latency: setup
