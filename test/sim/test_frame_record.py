@@ -118,6 +118,11 @@ def test_a_500_hz_stream_is_on_the_record_frame_for_frame_as_an_independent_read
     assert numbers == list(range(numbers[0], numbers[0] + frames))
     early = [(e["kp_max"], e["t"] - sent_at[e["kp_max"]]) for e in on_record if e["t"] < sent_at[e["kp_max"]]]
     assert not early, f"frames stamped before they were sent: {early[:5]}"
+    # each frame's writer stamp (its DDS source timestamp) is the write, read on this machine's one clock: between the
+    # Write call's start and the sim's delivery, and the sim applied it after delivering it (1 ms: the clocks' reads)
+    off = [(e["kp_max"], e["src"] - sent_at[e["kp_max"]], e["t"] - e["src"]) for e in on_record
+           if not sent_at[e["kp_max"]] - 1e-3 <= e["src"] <= e["t"] + 1e-3 or e["ap"] < e["t"]]
+    assert not off, f"frames whose write or application stamp is not between their write and their use: {off[:5]}"
 
 
 def test_a_reader_that_falls_too_far_behind_says_what_it_dropped_and_goes_on_in_order(sdk_channels: int) -> None:
@@ -126,7 +131,8 @@ def test_a_reader_that_falls_too_far_behind_says_what_it_dropped_and_goes_on_in_
     got: list[tuple[float, float, int]] = []
     drops: list[tuple[int, int]] = []
 
-    def handle(msg: LowCmd_, t: float, n: int) -> None:
+    def handle(msg: LowCmd_, t: float, n: int, written: float) -> None:
+        assert written <= t + 1e-3, "written after it was delivered"
         entered.set()
         release.wait(10.0)
         got.append((float(msg.motor_cmd[0].kp), t, n))
