@@ -9,7 +9,7 @@ SIDE_VENV ?= .venv-cyclone010
 
 MSG_SOURCES := $(shell find msg_defs -type f)
 
-.PHONY: setup run test ros-build chaos-ci lint bench latency body-latency policy-faults chaos exits soak clean
+.PHONY: setup run test ros-build chaos-ci lint bench latency body-latency policy-faults flakes chaos exits soak clean
 
 setup: $(STAMPS)/package $(STAMPS)/msgs $(STAMPS)/assets $(SIDE_VENV)/.stamp
 
@@ -64,11 +64,22 @@ ros-build: setup
 chaos-ci: setup
 	G1_CHAOS_N=18 G1_CHAOS_SEED=7012 G1_CHAOS_PARTS=1 $(BIN)/python -m pytest -q test/chaos/test_chaos.py
 
+# A flake census (docs/testing.md): each file of make latency and make policy-faults run FLAKE_RUNS times alone as
+# its target runs it, then make test SUITES times; a table of every failure with its first assertion line
+# (artifacts/flakes.md). `make flakes FLAKE_RUNS=50 LATENCY_FILES=test/e2e/test_user_ctrl.py POLICY_FAULT_FILES=`
+FLAKE_RUNS ?= 20
+SUITES ?= 0
+LATENCY_FILES ?= $(LATENCY_TESTS)
+POLICY_FAULT_FILES ?= test/e2e/test_policy_faults.py
+flakes: setup
+	PYTHONPATH=test$${PYTHONPATH:+:$$PYTHONPATH} $(BIN)/python -m flakes --runs $(FLAKE_RUNS) --suites $(SUITES) \
+		--latency $(LATENCY_FILES) --policy-faults $(POLICY_FAULT_FILES)
+
 # Policies made to fail mid-walk on the sim (non-finite, slow, a frozen state stream with every default), each judged
 # on the record: three more sims' worth of walking that the suite's four workers on two cores do not carry (figures in
 # docs/). CI runs this after make test.
 policy-faults: setup
-	$(BIN)/python -m pytest -q -s -m policy_faults test/e2e/test_policy_faults.py
+	$(BIN)/python -m pytest -q -s -m policy_faults $(POLICY_FAULT_FILES)
 
 # `make run VIEW=1` opens MuJoCo's viewer on the sim (where a display exists).
 run: setup
