@@ -43,7 +43,10 @@ def status_fields(msg: Any) -> dict[str, Any]:
             "ticks": int(msg.ticks), "overruns": int(msg.overruns), "skipped": int(msg.skipped),
             "blend": _finite(msg.blend, 3), "progress": _optional(msg.progress, 3),
             "max_target_error_rad": _finite(msg.max_target_error_rad, 4),
-            "tracking_error_rad": _optional(msg.tracking_error_rad, 4), "last_fault": msg.last_fault}
+            "tracking_error_rad": _optional(msg.tracking_error_rad, 4), "last_fault": msg.last_fault,
+            "action_scale": msg.action_scale, "state_to_frame_p99_ms": _finite(msg.state_to_frame_p99_ms, 2),
+            "frame_jitter_p99_ms": _finite(msg.frame_jitter_p99_ms, 2),
+            "clamped": {JOINT_NAMES[i]: int(n) for i, n in enumerate(msg.clamps) if n and i < len(JOINT_NAMES)}}
 
 
 def in_motor_order(names: Sequence[str], positions: Sequence[float]) -> list[float] | None:

@@ -15,7 +15,8 @@ from g1_mode_manager.protocol.motors import JOINT_NAMES
 def status_msg(**overrides) -> SimpleNamespace:
     fields = dict(policy="loco_ppo", phase="shadow", rate_hz=49.96, inference_p99_ms=1.234, tick_p99_ms=2.345,
                   ticks=120, overruns=1, skipped=2, blend=0.0, progress=-1.0, max_target_error_rad=0.12345,
-                  tracking_error_rad=-1.0, last_fault="")
+                  tracking_error_rad=-1.0, last_fault="", action_scale="flat 0.25", state_to_frame_p99_ms=2.5,
+                  frame_jitter_p99_ms=0.8, clamps=[])
     fields.update(overrides)
     return SimpleNamespace(**fields)
 
@@ -28,6 +29,9 @@ def test_the_status_is_shown_with_minus_one_as_none_and_nothing_json_cannot_carr
     dance = status_fields(status_msg(policy="dance_ppo", progress=0.4567, tracking_error_rad=0.05, tick_p99_ms=math.nan))
     assert dance["progress"] == 0.457 and dance["tracking_error_rad"] == 0.05
     assert dance["tick_p99_ms"] is None  # NaN would make the page's JSON.parse throw
+    clamped = status_fields(status_msg(clamps=[0, 0, 0, 0, 7] + [0] * 24))
+    assert clamped["clamped"] == {"left_ankle_pitch_joint": 7} and fields["clamped"] == {}
+    assert fields["action_scale"] == "flat 0.25" and fields["state_to_frame_p99_ms"] == 2.5
 
 
 def test_before_any_status_the_card_says_unloaded_and_knows_no_joints() -> None:

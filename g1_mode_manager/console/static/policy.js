@@ -89,6 +89,11 @@ class PolicyCard {
     set("policy-loaded", s.no_status ? "none (no ~/policy/status from the mode manager yet)" : s.policy || "none");
     set("policy-rate", s.rate_hz ? num(s.rate_hz, 1, "Hz") : "not ticking");
     set("policy-p99", loaded ? `${num(s.inference_p99_ms, 2, "ms")} / ${num(s.tick_p99_ms, 2, "ms")}` : "–");
+    set("policy-timing", loaded ? `${num(s.state_to_frame_p99_ms, 2, "ms")} / ${num(s.frame_jitter_p99_ms, 2, "ms")}`
+      : "–");
+    set("policy-scale", loaded ? s.action_scale || "–" : "–");
+    const clamped = Object.entries(s.clamped || {});
+    set("policy-clamped", !loaded ? "–" : clamped.length ? clamped.map(([j, n]) => `${j} ${n}`).join(", ") : "none");
     set("policy-ticks", loaded ? `${s.ticks} ticks, ${s.overruns} overruns, ${s.skipped} skipped` : "–");
     set("policy-blend", loaded ? `${(100 * s.blend).toFixed(0)} %` : "–");
     set("policy-progress", !loaded ? "–" : none(s.progress) ? "– (runs until stopped)"
