@@ -33,6 +33,9 @@ from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyLimits
 POLICY_MODELS = Path("share", "g1_mode_manager", "sim_assets", "policy")
 
 
+#: recorder_max_total_mb is in MB, as its name and docs/recorder.md say (not MiB).
+BYTES_PER_MB = 1_000_000
+
 @dataclass(frozen=True)
 class Settings:
     network_interface: str = "lo"
@@ -180,7 +183,7 @@ class Settings:
         """The flight recorder's settings; ``node``: the node's full name, for the files' metadata."""
         return RecorderConfig(folder_for(self.recorder_dir), enabled=self.recorder_enabled, window_s=self.recorder_window_s,
                               after_s=self.recorder_after_s, max_files=self.recorder_max_files,
-                              max_bytes=int(self.recorder_max_total_mb * 1024 * 1024),
+                              max_bytes=int(self.recorder_max_total_mb * BYTES_PER_MB),
                               frame_rate_hz=self.recorder_frame_rate_hz,
                               body_rate_hz=max(self.body_check_rate_hz, self.body_check_slow_rate_hz), node=node)
 

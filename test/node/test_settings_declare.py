@@ -130,6 +130,6 @@ def test_the_recorders_folder_is_its_parameter_or_the_users_state_folder(monkeyp
     config = Settings().recorder_config("/g1_mode_manager")
     assert str(config.folder) == "/state/g1_mode_manager/incidents" and config.node == "/g1_mode_manager"
     assert (config.window_s, config.after_s, config.max_files, config.body_rate_hz) == (30.0, 3.0, 50, 100.0)
-    assert config.max_bytes == 500 * 1024 * 1024
+    assert config.max_bytes == 500_000_000  # MB, as the parameter says
     monkeypatch.setenv("HOME", "/home/op")
     assert str(Settings(recorder_dir="~/incidents").recorder_config("").folder) == "/home/op/incidents"

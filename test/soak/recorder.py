@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from g1_mode_manager.core.recorder.incidents import PARTIAL, SUFFIX, IncidentFile, list_incidents, parse_name
+from g1_mode_manager.node.settings import BYTES_PER_MB
 
 #: The node's log line for each file it writes (relay/flight_recorder.py): how files that were written and rotated
 #: away between two looks at the folder are still counted.
@@ -40,7 +41,7 @@ class Limits:
 
     @property
     def max_bytes(self) -> int:
-        return int(self.max_total_mb * 1024 * 1024)  # as the node converts its parameter (node/settings.py)
+        return int(self.max_total_mb * BYTES_PER_MB)  # as the node converts its parameter
 
 
 @dataclass(frozen=True)

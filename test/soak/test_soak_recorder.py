@@ -18,7 +18,7 @@ from soak.recorder import Limits, RecorderLedger, judge_folder, read_incident, w
 from support.incident_files import estop_incident
 
 T0 = 1_795_000_000.0  # UNIX time of the first file
-MIB = 1024 * 1024
+MB = 1_000_000  # the parameter is in MB (node/settings.py BYTES_PER_MB)
 
 
 def _incident(folder: Path, began: float, cause: Cause, text: str, notes: int = 5) -> Path:
@@ -75,11 +75,11 @@ def test_the_size_limit_holds_unless_the_newest_alone_exceeds_it(tmp_path: Path)
     _snapshot(tmp_path, T0, notes=40)
     _estop(tmp_path, T0 + 100.0)
     total = sum(f.size for f in list_incidents(tmp_path))
-    assert _judge(tmp_path, Limits(10, total / MIB)) == []
-    [bad] = _judge(tmp_path, Limits(10, (total - 1) / MIB))
+    assert _judge(tmp_path, Limits(10, total / MB)) == []
+    [bad] = _judge(tmp_path, Limits(10, (total - 1) / MB))
     assert f"take {total} bytes" in bad
     (tmp_path / list_incidents(tmp_path)[0].path.name).unlink()  # the newest alone, larger than the limit: kept
-    assert _judge(tmp_path, Limits(10, 1 / MIB), written={}) == []
+    assert _judge(tmp_path, Limits(10, 1 / MB), written={}) == []
 
 
 def test_a_part_file_left_behind_is_a_violation(tmp_path: Path) -> None:
@@ -142,7 +142,7 @@ def test_removing_more_than_the_limits_ask_is_a_violation(tmp_path: Path) -> Non
     assert f"{first.name} ({written[first.name]} bytes) removed though it fitted" in bad
     assert _judge(tmp_path, Limits(2, 1.0), written) == []  # by count
     kept = sum(f.size for f in list_incidents(tmp_path))
-    assert _judge(tmp_path, Limits(3, (kept + written[first.name] - 1) / MIB), written) == []  # by size
+    assert _judge(tmp_path, Limits(3, (kept + written[first.name] - 1) / MB), written) == []  # by size
     assert _judge(tmp_path, Limits(3, 1.0), {**written, first.name: None}) == []  # its size never seen: not judged
 
 
@@ -178,7 +178,7 @@ def test_the_ledger_counts_every_file_written_and_reports_one_line(tmp_path: Pat
     line = ledger.summary()
     assert line.startswith("recorder: 3 incident files written (1 emergency, 2 snapshot), 2 kept at the end (")
     assert "1 rotated away (at the count limit after 1 lifetimes, the size limit after 0)" in line
-    assert line.endswith("limits 2 files, 1 MB (1024.0 KiB)") and "\n" not in line
+    assert line.endswith("limits 2 files, 1 MB (976.6 KiB)") and "\n" not in line
     assert ledger.sizes_line().startswith("Incident sizes seen: emergency 1: ")
     assert len(ledger.table()) == 3
 
@@ -187,6 +187,6 @@ def test_the_ledger_counts_every_file_written_and_reports_one_line(tmp_path: Pat
     big = _estop(folder, T0 + 300.0)
     for old in list_incidents(folder)[:-1]:
         old.path.unlink()
-    ledger.limits = Limits(2, (big.stat().st_size + 1) / MIB)
+    ledger.limits = Limits(2, (big.stat().st_size + 1) / MB)
     assert ledger.judge(1, "", estop_wall=T0 + 300.0, estop_before_stop=False) == []
     assert (ledger.lifetimes[1].written, ledger.lifetimes[1].removed, ledger.lifetimes[1].limit) == (2, 3, "size")
