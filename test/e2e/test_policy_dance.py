@@ -61,7 +61,11 @@ def _clip_at(stack, seconds: float, timeout_s: float) -> None:
     length = clip_seconds(policy)
     assert wait_until(lambda: seen[-1].phase != "running" or seen[-1].progress * length >= seconds, timeout_s), \
         f"{policy}: {seen[-1].progress * length:.1f} s of the clip after {timeout_s:.0f} s"
-    assert seen[-1].phase == "running", (seen[-1].phase, seen[-1].last_fault)
+    if seen[-1].phase != "running":
+        modes = stack.modes()
+        raise AssertionError(f"{policy}: the policy is {seen[-1].phase} ({seen[-1].last_fault!r}) at "
+                             f"{seen[-1].progress * length:.1f} s of the clip; the node in "
+                             f"{modes[-1].name if modes else '?'} {list(modes[-1].faults) if modes else []}")
 
 
 @pytest.mark.parametrize("policy", ["dance_ppo", "dance_fastsac"])
