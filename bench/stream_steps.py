@@ -79,8 +79,8 @@ def lowcmd_steps() -> list[Step]:
     from g1_mode_manager_msgs.msg import JointCommand
     from rclpy.serialization import serialize_message
 
+    from g1_mode_manager.flight_recorder.recording_port import RecordingPort
     from g1_mode_manager.node.joint_command_cdr import JointCommandReader
-    from g1_mode_manager.relay.recording_port import RecordingPort
     from g1_mode_manager.sdk.frames import FrameWriter, LowCmdFrame
     from g1_mode_manager.sdk.lowcmd import build_lowcmd_frame
 

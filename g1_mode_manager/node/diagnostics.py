@@ -7,10 +7,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from g1_mode_manager.core.drive import Driver
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.records import MachineStatus
+from g1_mode_manager.flight_recorder.flight_recorder import RecorderReport
+from g1_mode_manager.policy_loop.policy_runner import PolicyRunner
 from g1_mode_manager.relay.drive_sources import Driving
-from g1_mode_manager.relay.flight_recorder import RecorderReport
 from g1_mode_manager.relay.link_health import LinkReport
-from g1_mode_manager.relay.policy_runner import PolicyRunner
 from g1_mode_manager.relay.walk_judge import WalkReport
 
 

@@ -7,7 +7,7 @@ from rclpy.impl.rcutils_logger import RcutilsLogger
 
 from g1_mode_manager.core.events import LogFn, RelayEvents
 from g1_mode_manager.core.records import Result, TransitionRecord
-from g1_mode_manager.relay.flight_recorder import FlightRecorder
+from g1_mode_manager.flight_recorder.flight_recorder import FlightRecorder
 
 
 def log_to(logger: RcutilsLogger) -> LogFn:

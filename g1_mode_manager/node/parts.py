@@ -19,21 +19,21 @@ from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus
 from g1_mode_manager.display.head_led import HeadLed, LedLook, parse_looks
+from g1_mode_manager.flight_recorder.flight_recorder import FlightRecorder
 from g1_mode_manager.node.body_supervision import BodySupervision
 from g1_mode_manager.node.node_log import NodeLog
 from g1_mode_manager.node.settings import Settings, parse_keys
 from g1_mode_manager.node.supervisor import RobotSupervisor
+from g1_mode_manager.policy_loop.policy_keys import KeyCombo, PolicyKeys
+from g1_mode_manager.policy_loop.policy_runner import PolicyRunner
 from g1_mode_manager.relay.arm import ArmRelay
 from g1_mode_manager.relay.autonomy_conditions import AutonomyConditions
 from g1_mode_manager.relay.cmd_vel import AutonomyInput, CmdVelRelay
-from g1_mode_manager.relay.flight_recorder import FlightRecorder
 from g1_mode_manager.relay.link_health import LinkHealth
 from g1_mode_manager.relay.loco_command import LocoCommands
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
 from g1_mode_manager.relay.lowstate_demand import LowStateDemand
 from g1_mode_manager.relay.periodic import PeriodicWorker
-from g1_mode_manager.relay.policy_keys import KeyCombo, PolicyKeys
-from g1_mode_manager.relay.policy_runner import PolicyRunner
 from g1_mode_manager.relay.user_lowcmd import UserLowCmdRelay
 from g1_mode_manager.relay.walk_judge import WalkJudge
 

@@ -16,9 +16,9 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 from g1_mode_manager.node.side_node import SideNode
+from g1_mode_manager.policy_loop.policy_runner import DisengageTo, PolicyRunner
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from g1_mode_manager.relay.periodic import PeriodicWorker
-from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyRunner
 from g1_mode_manager.topic_qos import MODE_QOS
 
 #: ~/policy/targets and the status' change check, Hz (the policy ticks at 50: every second tick is shown).

@@ -23,11 +23,11 @@ from g1_mode_manager.core.recorder.incidents import folder_for
 from g1_mode_manager.core.user_ctrl import LowLevelPath, SilenceReaction, UserCtrlConfig
 from g1_mode_manager.core.velocity import VelocityLimits
 from g1_mode_manager.display.head_led import LedLook
+from g1_mode_manager.flight_recorder.flight_recorder import RecorderConfig
 from g1_mode_manager.node.parameter_descriptions import descriptor
 from g1_mode_manager.node.renamed_parameters import read_old_names
+from g1_mode_manager.policy_loop.policy_runner import DisengageTo, PolicyLimits
 from g1_mode_manager.protocol.remote import KEY_NAMES, key_mask
-from g1_mode_manager.relay.flight_recorder import RecorderConfig
-from g1_mode_manager.relay.policy_runner import DisengageTo, PolicyLimits
 
 #: The models set-up extracts from holosoma-inference's pinned wheel (scripts/fetch_assets.py), under the prefix.
 POLICY_MODELS = Path("share", "g1_mode_manager", "sim_assets", "policy")
@@ -131,7 +131,7 @@ class Settings:
     user_ctrl_rest_speed_rad_s: float = UserCtrlConfig.rest_speed_rad_s
     user_ctrl_rest_timeout_s: float = UserCtrlConfig.rest_timeout_s
     user_ctrl_first_frame_s: float = UserCtrlConfig.first_frame_s
-    # --- a policy in the node's own loop (relay/policy_runner.py, docs/policies.md) ---
+    # --- a policy in the node's own loop (policy_loop/policy_runner.py, docs/policies.md) ---
     policy: str = "loco_ppo"
     policy_dir: str = ""
     policy_blend_s: float = PolicyLimits.blend_s
@@ -141,11 +141,11 @@ class Settings:
     policy_max_overruns: int = PolicyLimits.max_overruns
     policy_clamp_max_s: float = PolicyLimits.clamp_max_s
     policy_disengage: str = PolicyLimits.disengage.value
-    # the remote's keys for the policy (relay/policy_keys.py): unitree_rl_lab's G1 deploy starts its velocity policy
+    # the remote's keys for the policy (policy_loop/policy_keys.py): unitree_rl_lab's G1 deploy starts its velocity policy
     # on R1+X and stands the robot on L2+Up
     policy_engage_keys: str = "R1+X"
     policy_disengage_keys: str = "L2+Up"
-    # --- the flight recorder (relay/flight_recorder.py, docs/recorder.md) ---
+    # --- the flight recorder (flight_recorder/flight_recorder.py, docs/recorder.md) ---
     recorder_enabled: bool = True
     recorder_dir: str = ""
     recorder_window_s: float = 30.0

@@ -15,6 +15,8 @@ from rclpy.node import Node
 
 from g1_mode_manager.core.port import RobotPort
 from g1_mode_manager.core.records import MachineStatus
+from g1_mode_manager.flight_recorder.flight_recorder import FlightRecorder
+from g1_mode_manager.flight_recorder.recording_port import recording_port
 from g1_mode_manager.node.command_streams import CommandStreams
 from g1_mode_manager.node.estop import EstopEndpoint
 from g1_mode_manager.node.node_log import NodeLog, log_to
@@ -22,8 +24,6 @@ from g1_mode_manager.node.parts import Parts, build_parts
 from g1_mode_manager.node.services import Services
 from g1_mode_manager.node.settings import Settings
 from g1_mode_manager.node.state_publishers import StatePublishers
-from g1_mode_manager.relay.flight_recorder import FlightRecorder
-from g1_mode_manager.relay.recording_port import recording_port
 
 PortFactory = Callable[[Settings], RobotPort]
 

@@ -1,7 +1,8 @@
 """The layers import only downward: a claim the README and docs/architecture.md make, checked here.
 
-``core/`` (the state machine, the robot port, the body checks), ``relay/`` (the stream workers) and
-``display/`` (the head LED) import with ROS and DDS made unimportable; the sim shares only ``protocol/``
+``core/`` (the state machine, the robot port, the body checks), ``relay/`` (the stream workers), the rooms
+above them (``flight_recorder/``, ``policy_loop/``) and ``display/`` (the head LED) import with ROS and DDS made
+unimportable; the relays import neither room, and neither room the node nor the other; the sim shares only ``protocol/``
 with the product; g1ctl and the console reach the node over ROS 2, never through its modules, and the
 display they share with it imports only the core; benchmarks share the harness with the tests, never
 the tests themselves.
@@ -77,7 +78,7 @@ def _is_ros_or_dds(module: str) -> bool:
     return _top(module) in ROS_AND_DDS or _top(module).startswith(("rosidl_", "rcl_", "rmw_"))
 
 
-PURE = ("core", "relay", "display", "policy")
+PURE = ("core", "relay", "flight_recorder", "policy_loop", "display", "policy")
 
 
 def test_core_relay_and_display_import_with_ros_and_dds_blocked() -> None:
@@ -94,9 +95,28 @@ def test_core_relay_and_display_name_no_ros_or_dds_module_even_inside_a_function
 
 
 def test_core_imports_nothing_above_it() -> None:
-    above = tuple(f"g1_mode_manager.{p}" for p in ("relay", "sdk", "node", "display", "console", "cli", "demo"))
+    above = tuple(f"g1_mode_manager.{p}" for p in ("relay", "flight_recorder", "policy_loop", "sdk", "node", "display",
+                                                   "console", "cli", "demo"))
     found = _offending(PACKAGE / "core", lambda module, _name: module.startswith(above))
     assert not found, "core/ imports only core/ and protocol/ of the product:\n" + "\n".join(found)
+
+
+def _within(module: str, *layers: str) -> bool:
+    return any((module + ".").startswith(f"g1_mode_manager.{layer}.") for layer in layers)
+
+
+def test_the_relays_import_neither_the_flight_recorder_nor_the_policy_loop() -> None:
+    found = _offending(PACKAGE / "relay", lambda module, _name: _within(module, "flight_recorder", "policy_loop",
+                                                                         "node", "sdk"))
+    assert not found, "relay/ sits below the flight recorder and the policy loop:\n" + "\n".join(found)
+
+
+def test_the_flight_recorder_and_the_policy_loop_import_only_downward_and_not_each_other() -> None:
+    for room, other in (("flight_recorder", "policy_loop"), ("policy_loop", "flight_recorder")):
+        found = _offending(PACKAGE / room, lambda module, _name, other=other: _within(
+            module, other, "node", "sdk", "console", "cli", "display", "demo"))
+        assert not found, f"{room}/ imports only core/, protocol/, policy/ and relay/ of the product:\n" + (
+            "\n".join(found))
 
 
 def test_the_display_imports_only_the_core() -> None:
@@ -121,8 +141,10 @@ def test_the_sim_shares_only_protocol_with_the_product() -> None:
 def test_cli_and_console_reach_the_node_over_ros_only() -> None:
     for client in ("cli", "console"):
         found = _offending(PACKAGE / client, lambda module, _name: module.startswith(("g1_mode_manager.node",
-                                                                                      "g1_mode_manager.relay")))
-        assert not found, f"{client}/ imports nothing of node/ or relay/:\n" + "\n".join(found)
+                                                                                      "g1_mode_manager.relay",
+                                                                                      "g1_mode_manager.flight_recorder",
+                                                                                      "g1_mode_manager.policy_loop")))
+        assert not found, f"{client}/ imports nothing of node/, relay/ or the rooms above it:\n" + "\n".join(found)
 
 
 def test_benchmarks_import_nothing_of_the_tests_nor_private_names() -> None:

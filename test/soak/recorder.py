@@ -2,7 +2,7 @@
 across lifetimes), and after each lifetime, with its node stopped, the folder is judged against docs/recorder.md:
 
 - at most ``recorder_max_files`` complete files, together at most ``recorder_max_total_mb``, except that the newest
-  stays even when it alone is larger (relay/incident_folder.py, ``to_remove``: the oldest go while more than one is
+  stays even when it alone is larger (flight_recorder/incident_folder.py, ``to_remove``: the oldest go while more than one is
   left and either limit is exceeded);
 - the oldest went first: every file written after the oldest one kept is still there, the newest written included;
 - no more went than the limits asked for: the newest file removed would not have fitted beside those kept (judged
@@ -26,7 +26,7 @@ from pathlib import Path
 from g1_mode_manager.core.recorder.incidents import PARTIAL, SUFFIX, IncidentFile, list_incidents, parse_name
 from g1_mode_manager.node.settings import BYTES_PER_MB
 
-#: The node's log line for each file it writes (relay/flight_recorder.py): how files that were written and rotated
+#: The node's log line for each file it writes (flight_recorder/flight_recorder.py): how files that were written and rotated
 #: away between two looks at the folder are still counted.
 _WRITTEN = re.compile(r"incident written to [^\n]*?(incident_[^/\s]+" + re.escape(SUFFIX) + r") \(")
 #: The e-stop's file begins at EMERGENCY's entry, a moment after the request; a stop entered up to the after-window

@@ -13,7 +13,7 @@ import pytest
 from g1_mode_manager.core.recorder.events import Note
 from g1_mode_manager.core.recorder.incidents import Cause, list_incidents
 from g1_mode_manager.core.recorder.ring import FlightRing, caps_for
-from g1_mode_manager.relay.incident_folder import IncidentFolder
+from g1_mode_manager.flight_recorder.incident_folder import IncidentFolder
 from soak.recorder import Limits, RecorderLedger, judge_folder, read_incident, written_in_log
 from support.incident_files import estop_incident
 

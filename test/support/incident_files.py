@@ -16,9 +16,9 @@ from g1_mode_manager.core.recorder.events import BodyStep, EstopStep, Kind, Move
 from g1_mode_manager.core.recorder.incidents import Cause
 from g1_mode_manager.core.recorder.ring import FlightRing, caps_for
 from g1_mode_manager.core.records import MachineStatus
+from g1_mode_manager.flight_recorder.incident_folder import IncidentFolder
+from g1_mode_manager.flight_recorder.recording_port import recording_port
 from g1_mode_manager.protocol.odom_fields import OdomFields
-from g1_mode_manager.relay.incident_folder import IncidentFolder
-from g1_mode_manager.relay.recording_port import recording_port
 
 EPOCH = 1_795_000_000.0  # UNIX time of the fake clock's 0
 STOP = 100.0  # when the e-stop's EMERGENCY is entered, on the fake clock

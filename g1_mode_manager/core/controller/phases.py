@@ -1,5 +1,5 @@
 """The lifecycle of a controller in the node's loop, as one table: which verb or event moves it from which phase
-to which, and why every other pair is refused. Pure: the loop (relay/policy_runner.py) asks and acts.
+to which, and why every other pair is refused. Pure: the loop (policy_loop/policy_runner.py) asks and acts.
 
 load -> LOADED (checked, nothing sent) -> shadow -> SHADOW (runs on the live state, nothing sent) -> engage ->
 ENGAGING (LOW_LEVEL being entered) -> entered -> BLENDING (from the measured pose) -> blended -> RUNNING; disengage

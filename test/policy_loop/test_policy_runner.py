@@ -19,9 +19,9 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import StateSample
 from g1_mode_manager.core.records import Outcome
 from g1_mode_manager.core.velocity import VelocityLimits
+from g1_mode_manager.policy_loop.policy_runner import PolicyLimits, PolicyRunner
 from g1_mode_manager.protocol.body_fields import BodyFields
 from g1_mode_manager.protocol.motors import JOINT_NAMES, JOINT_RANGE_RAD, NUM_JOINTS
-from g1_mode_manager.relay.policy_runner import PolicyLimits, PolicyRunner
 
 POSE = np.full(NUM_JOINTS, 0.1)
 LIMITS = VelocityLimits(0.8, 0.4, 1.0, 1.5, 1.0, 3.0)

@@ -25,7 +25,7 @@ Answer = tuple[bool, str]
 
 
 class PolicyVerbs(Protocol):
-    """What the keys ask of the policy runner (relay/policy_runner.py)."""
+    """What the keys ask of the policy runner (policy_loop/policy_runner.py)."""
 
     phase: Phase
     on_phase_change: Callable[[], None]

@@ -16,8 +16,8 @@ from typing import Final
 
 from g1_mode_manager.core.recorder.incidents import PARTIAL, SUFFIX, Cause, file_name, list_incidents, to_remove
 from g1_mode_manager.core.recorder.ring import Entry
-from g1_mode_manager.relay.forked_write import in_child
-from g1_mode_manager.relay.incident_writer import write_incident
+from g1_mode_manager.flight_recorder.forked_write import in_child
+from g1_mode_manager.flight_recorder.incident_writer import write_incident
 
 #: The longest an incident's child may take to write it (a full window takes about a second), s.
 WRITE_TIMEOUT_S: Final = 30.0

@@ -38,7 +38,7 @@ from g1_mode_manager.core.recorder.incidents import Cause
 from g1_mode_manager.core.recorder.ring import RATES_HZ, FlightRing, caps_for
 from g1_mode_manager.core.records import MachineStatus, TransitionRecord
 from g1_mode_manager.core.velocity import Velocity
-from g1_mode_manager.relay.incident_folder import IncidentFolder
+from g1_mode_manager.flight_recorder.incident_folder import IncidentFolder
 
 #: An e-stop request this recent names how the EMERGENCY that follows was asked for, s.
 ESTOP_VIA_S: Final = 2.0

@@ -15,7 +15,7 @@ from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.recorder.events import Kind
 from g1_mode_manager.core.recorder.incidents import Cause, list_incidents
 from g1_mode_manager.core.records import MachineStatus
-from g1_mode_manager.relay.flight_recorder import PRUNE_PERIOD_S, FlightRecorder, RecorderConfig
+from g1_mode_manager.flight_recorder.flight_recorder import PRUNE_PERIOD_S, FlightRecorder, RecorderConfig
 from support.mode_manager import wait_until
 
 VERDICTS = ("ok",) * 10

@@ -34,9 +34,9 @@ from g1_mode_manager.core.recorder.events import (
 )
 from g1_mode_manager.core.recorder.ring import FlightRing, caps_for
 from g1_mode_manager.core.records import MachineStatus, Result, TransitionRecord
-from g1_mode_manager.relay import incident_writer as w
-from g1_mode_manager.relay import ros2_schemas
-from g1_mode_manager.relay.recording_port import DAMP, SET_VELOCITY
+from g1_mode_manager.flight_recorder import incident_writer as w
+from g1_mode_manager.flight_recorder import ros2_schemas
+from g1_mode_manager.flight_recorder.recording_port import DAMP, SET_VELOCITY
 
 EPOCH = 1_795_000_000.0  # what the fake clock's 0 is in UNIX time
 

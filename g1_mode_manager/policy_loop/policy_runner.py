@@ -32,9 +32,9 @@ from g1_mode_manager.core.machine import ModeMachine
 from g1_mode_manager.core.modes import Mode
 from g1_mode_manager.core.port import RobotPort, StateSample
 from g1_mode_manager.core.velocity import ZERO, VelocityLimits
+from g1_mode_manager.policy_loop.tick_stats import TickStats
 from g1_mode_manager.protocol.motors import JOINT_NAMES
 from g1_mode_manager.relay.lowcmd import LowCmdRelay
-from g1_mode_manager.relay.tick_stats import TickStats
 from g1_mode_manager.relay.velocity_source import VelocitySource
 
 

@@ -14,10 +14,10 @@ from g1_mode_manager.core.joint_commands import DAMPING
 from g1_mode_manager.core.port import OdomSample, RobotError, RobotPort
 from g1_mode_manager.core.recorder.events import FrameSent, OdometrySeen, Phase, RobotCall
 from g1_mode_manager.core.user_ctrl import UserCtrlPort
+from g1_mode_manager.flight_recorder.recording_port import RecordingPort, recording_port
 from g1_mode_manager.protocol import api_ids
 from g1_mode_manager.protocol.fsm import InternalCtrl
 from g1_mode_manager.protocol.odom_fields import OdomFields
-from g1_mode_manager.relay.recording_port import RecordingPort, recording_port
 
 
 def _port(robot=None, frame_period_s: float = 0.1):

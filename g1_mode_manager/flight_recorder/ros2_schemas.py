@@ -2,7 +2,7 @@
 reader decodes every message without this package or ROS installed.
 
 Each is its interface file with comments and blank lines left out, its dependencies after a line of '=' and a
-``MSG:`` line; test/relay/test_incident_writer.py checks them against the installed interface files.
+``MSG:`` line; test/flight_recorder/test_incident_writer.py checks them against the installed interface files.
 """
 
 from __future__ import annotations

@@ -12,9 +12,9 @@ import rclpy.logging
 from fakes.fake_clock import FakeClock
 from g1_mode_manager.core.controller.phases import Phase
 from g1_mode_manager.node.node_log import NodeLog
+from g1_mode_manager.policy_loop.policy_keys import KeyCombo, PolicyKeys
 from g1_mode_manager.protocol.remote import key_mask
 from g1_mode_manager.relay.body_watch import REMOTE_FRESH_S
-from g1_mode_manager.relay.policy_keys import KeyCombo, PolicyKeys
 from support.mode_manager import wait_until
 
 ENGAGE = KeyCombo("R1+X", key_mask(("R1", "X")))

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from g1_mode_manager.relay.forked_write import ChildWriteError, in_child
+from g1_mode_manager.flight_recorder.forked_write import ChildWriteError, in_child
 
 
 def _rss_kb() -> int:

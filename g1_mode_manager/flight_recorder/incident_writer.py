@@ -56,9 +56,9 @@ from g1_mode_manager.core.recorder.events import (
 )
 from g1_mode_manager.core.recorder.incidents import METADATA_NAME
 from g1_mode_manager.core.recorder.ring import Entry
+from g1_mode_manager.flight_recorder import ros2_schemas as schemas
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINT_NAMES, JOINT_NAMES
 from g1_mode_manager.protocol.odom_fields import rotate_into_body
-from g1_mode_manager.relay import ros2_schemas as schemas
 
 #: Messages written between two looks for other threads (time.sleep(0) hands the GIL over).
 YIELD_EVERY: Final = 200
