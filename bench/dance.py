@@ -178,7 +178,9 @@ def _dance(ros: RosClient, sim, policy: str, seconds: float, floor_z: float) -> 
                 if time.monotonic() - ended_at >= 1.0:  # on the clip's last frame for a second
                     break
         last = statuses[-1] if statuses else None
-        out.fault = last.last_fault if last is not None else ""
+        # the loop's own stop (its status) or a body check's FAULT (the mode: the loop only sees its phase end)
+        faults = [f for m in modes for f in m.faults]
+        out.fault = "; ".join(filter(None, (last.last_fault if last is not None else "", *dict.fromkeys(faults))))
         if last is not None and last.phase not in OVER:
             reply = ros.call(Trigger, f"{NODE}/policy/disengage", Trigger.Request(), 30.0)
             print(f"disengage: {reply.success} {reply.message}")

@@ -14,7 +14,9 @@ Flow as the node's: the robot stands in the sim's standing keyframe, the ready p
 Prints one ``PLAYBACK key=value ...`` line a run: played (the clip's share), fell and when (s after the policy
 started), the RMS joint error against the clip's reference (median, max over the policy's ticks), the lowest pelvis
 height, the largest torso tilt, and the targets past a joint's range + the frame check's margin (how many ticks, the
-most), which ``--clamp`` clamps as the node's loop does.
+most), which ``--clamp`` clamps as the node's loop does, and what the node's joint-speed and spin checks would have
+done at their rate on the same motion (``core/body/motion_allowance.py``, the checks' own thresholds and debounce):
+how many times each would have tripped, the first trip, and the largest speed over a joint's bound.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from g1_mode_manager.core.body.checks import BY_NAME as CHECKS
+from g1_mode_manager.core.body.motion_allowance import NO_ALLOWANCE, MotionRecord
 from g1_mode_manager.core.controller.interface import Command, RobotState
 from g1_mode_manager.core.joint_commands import RANGE_MARGIN_RAD
 from g1_mode_manager.core.user_ctrl import UserCtrlConfig
@@ -48,6 +52,8 @@ BLEND_S = 0.5
 #: The user-control entry's hand-over frame holds the robot this long before the blend begins, s (the switch and its
 #: fsm 1000 seen; the sim's user_ctrl_delay_s is 0.05 of sim time).
 HAND_OVER_S = 0.1
+#: The body watch's rate in the node (body_check_rate_hz), Hz.
+BODY_CHECK_HZ = 100.0
 _LOW = np.array([r[0] for r in JOINT_RANGE_RAD]) - RANGE_MARGIN_RAD
 _HIGH = np.array([r[1] for r in JOINT_RANGE_RAD]) + RANGE_MARGIN_RAD
 
@@ -67,6 +73,10 @@ class Playback:
     first_past: str = ""  # when (s after the policy started) and which joint's target first went past
     speed_over_ref: float = 0.0  # the largest |dq| - |reference dq| over the ticks, rad/s
     speed: float = 0.0  # the largest |dq|, rad/s
+    trips: dict[str, int] = field(default_factory=lambda: {"joint_speed": 0, "spin": 0})  # what the checks would do
+    first_trip: str = ""
+    over_bound: float = float("-inf")  # the largest |dq| less its joint's bound at a check, rad/s
+    over_bound_at: str = ""
 
     def line(self) -> str:
         med = statistics.median(self.errors) if self.errors else float("nan")
@@ -76,7 +86,47 @@ class Playback:
                 f"lowest_pelvis_z={self.lowest_z:.3f} max_tilt={self.worst_tilt:.3f} past_stop_ticks={self.past_stops} "
                 f"past_stop_most={self.past_by:.3f} past_stop_joint={self.past_joint or '-'} past_stop_run={self.past_run} "
                 f"first_past={self.first_past or '-'} "
-                f"max_dq={self.speed:.2f} max_dq_over_reference={self.speed_over_ref:.2f}")
+                f"max_dq={self.speed:.2f} max_dq_over_reference={self.speed_over_ref:.2f} "
+                f"joint_speed_trips={self.trips['joint_speed']} spin_trips={self.trips['spin']} "
+                f"first_trip={self.first_trip or '-'} most_over_bound={self.over_bound:.2f}:{self.over_bound_at or '-'}")
+
+
+class CheckReplica:
+    """The node's joint-speed and spin checks at the body watch's rate on the playback's state, judged less what the
+    motion allows as the node judges them (the product's MotionRecord on the playback's clock)."""
+
+    def __init__(self, out: Playback, clock: list[float]) -> None:
+        self._out = out
+        self._clock = clock
+        self._checks = (CHECKS["joint_speed"], CHECKS["spin"])
+        self.record = MotionRecord(CHECKS["joint_speed"].threshold, CHECKS["spin"].threshold, clock=lambda: clock[0])
+        self._above_since: dict[str, float | None] = {"joint_speed": None, "spin": None}
+        self._tripped: dict[str, bool] = {"joint_speed": False, "spin": False}
+
+    def step(self, dq: np.ndarray, gyro: np.ndarray) -> None:
+        now, out = self._clock[0], self._out
+        allowed = self.record.current() or NO_ALLOWANCE
+        joint_base = CHECKS["joint_speed"].threshold
+        judged_joints = np.abs(dq) - np.asarray(allowed.joints)
+        worst = int(np.argmax(judged_joints))
+        if judged_joints[worst] - joint_base > out.over_bound:
+            out.over_bound = float(judged_joints[worst] - joint_base)
+            out.over_bound_at = f"{now:.2f}s:{JOINT_NAMES[worst]}:{abs(dq[worst]):.2f}"
+        values = {"joint_speed": float(judged_joints[worst]),
+                  "spin": float(np.max(np.abs(gyro) - np.asarray(allowed.spin)))}
+        for check in self._checks:
+            if not check.trips(values[check.name]):
+                self._above_since[check.name], self._tripped[check.name] = None, False
+                continue
+            since = self._above_since[check.name]
+            if since is None:
+                self._above_since[check.name] = since = now
+            if now - since >= check.debounce_s - 1e-9 and not self._tripped[check.name]:
+                self._tripped[check.name] = True
+                out.trips[check.name] += 1
+                if not out.first_trip:
+                    where = f":{JOINT_NAMES[worst]}" if check.name == "joint_speed" else ""
+                    out.first_trip = f"{now:.2f}s:{check.name}{where}:{values[check.name]:.2f}"
 
 
 def _tilt(quat_wxyz: np.ndarray) -> float:
@@ -133,6 +183,9 @@ def play(policy: str, *, latency_ms: float = 0.0, ready_s: float = 1.0, after_s:
     command = (ready.q, zeros, zeros, ready.kp, ready.kd)
     pending: list[tuple[int, tuple[np.ndarray, ...]]] = []
     runs = np.zeros(NUM_JOINTS, dtype=int)
+    clock = [0.0]  # s since the policy started: the checks' replica's clock
+    checks = CheckReplica(out, clock)
+    check_every = round(1.0 / (BODY_CHECK_HZ * TIMESTEP_S))
     ready_steps = round(ready_s / TIMESTEP_S)
     total = controller.motion_steps / controller.rate_hz + controller.start_hold_s
     end = ready_steps + round((seconds if seconds is not None else total + after_s) / TIMESTEP_S)
@@ -142,7 +195,9 @@ def play(policy: str, *, latency_ms: float = 0.0, ready_s: float = 1.0, after_s:
                                   0.0)
             if step == ready_steps:
                 controller.activate(state)
+            clock[0] = (step - ready_steps) * TIMESTEP_S
             targets = controller.step(state, Command())
+            checks.record.note(*controller.reference_speeds())
             reference = controller.reference()
             out.errors.append(float(np.sqrt(np.mean((state.q - reference) ** 2))))
             over = np.maximum(targets.q - _HIGH, _LOW - targets.q)
@@ -166,6 +221,9 @@ def play(policy: str, *, latency_ms: float = 0.0, ready_s: float = 1.0, after_s:
         data.ctrl[:NUM_JOINTS] = pd(*command, q, dq)
         mujoco.mj_step(model, data)
         z, tilt = float(data.qpos[2]), _tilt(data.qpos[3:7])
+        if step >= ready_steps and step % check_every == 0:
+            clock[0] = (step - ready_steps) * TIMESTEP_S
+            checks.step(dq, data.sensordata[gyro:gyro + 3])
         if step >= ready_steps:
             out.lowest_z, out.worst_tilt = min(out.lowest_z, z), max(out.worst_tilt, tilt)
         if z < FALLEN_Z_M or tilt > FALLEN_TILT_RAD:
