@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from g1_mode_manager.protocol.api_ids import MOVE_CONTINUOUS_DURATION_S, OK
+from g1_mode_manager.protocol.api_ids import ERR_REFUSED_IN_STATE, MOVE_CONTINUOUS_DURATION_S, OK
 from g1_mode_manager.protocol.fsm import FsmId, FsmMode
 from g1_mode_manager.protocol.motors import ARM_SDK_JOINTS, JOINT_INDEX
 from g1_sim.firmware import SimG1
@@ -61,6 +61,40 @@ def test_idle_lock_stand_holds_for_120_s() -> None:
     run(sim, 120.0)
     assert np.all(np.abs(sim.base_pose().position - p0) < 0.01)  # no sag, no stepping, no drift
     assert sim.get_fsm_id() == (OK, FsmId.STAND_UP)
+
+
+def sway(sim: SimG1, seconds: float) -> tuple[float, float]:
+    """(fore-aft range of the pelvis over the last half of ``seconds``, lowest pelvis height over all of it), m."""
+    xs, lowest = [], float("inf")
+    for k in range(round(seconds / 0.1)):
+        run(sim, 0.1)
+        position = sim.base_pose().position
+        lowest = min(lowest, float(position[2]))
+        if k >= seconds / 0.2:
+            xs.append(float(position[0]))
+    return max(xs) - min(xs), lowest
+
+
+def test_lock_stand_rides_out_a_small_push() -> None:
+    """A 40 N push of 0.1 s sways the standing robot by about 2 cm; the lock stand damps it out (an integral on the
+    ankles fed it until the robot fell about 20 s later)."""
+    sim = SimG1()
+    sim.push((40.0, 0.0), 0.1)
+    swing, lowest = sway(sim, 40.0)
+    assert lowest > 0.7 and not sim.fallen
+    assert swing < 0.005, f"still swaying {swing:.3f} m after 20 s"
+
+
+def test_lock_stand_after_lie2standup_keeps_standing_idle() -> None:
+    """Unitree's loco example's Lie2StandUp after a damped fall, then nothing for 40 s: the sway the get-up leaves
+    dies out (it grew until the robot fell forward about 16 s after 702)."""
+    sim = SimG1()
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    run(sim, 5.0)
+    assert sim.set_fsm_id(FsmId.LIE_TO_STAND) == OK
+    swing, _ = sway(sim, 40.0)
+    assert sim.base_pose().position[2] > 0.7 and sim.get_fsm_id() == (OK, FsmId.LIE_TO_STAND)
+    assert swing < 0.005, f"still swaying {swing:.3f} m 20-40 s after 702"
 
 
 def test_reference_arm_sdk_in_lock_stand() -> None:
@@ -185,3 +219,25 @@ def test_802_walks_and_takes_arm_sdk() -> None:
     run(sim, 3.0)
     assert sim.base_pose().position[0] > 0.8
     assert not sim.fallen
+
+
+def test_loco_example_get_up_then_moves_then_arm7_example_as_a_user_types_them() -> None:
+    """Unitree's loco example as a user runs it (damp: the robot falls; Lie2StandUp, which damps, waits 0.5 s and
+    sends 702; "move forward" four times, each refused while 702 is static), then the arm7 example 15 s after the
+    702 call (as on the failing run's record): the robot stands through it and after. On the bridge with the
+    unchanged files (docs/robot_compat.md) it fell 1.3 s into the arm example: the get-up's sway, grown by the
+    ankles' integral."""
+    sim = SimG1()
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    run(sim, 5.0)
+    assert sim.set_fsm_id(FsmId.DAMP) == OK
+    run(sim, 0.5)
+    assert sim.set_fsm_id(FsmId.LIE_TO_STAND) == OK
+    run(sim, 7.5)
+    for _ in range(4):
+        assert sim.set_velocity(0.3, 0.0, 0.0, 1.0) == ERR_REFUSED_IN_STATE
+        run(sim, 1.5)
+    run(sim, 15.0 - 7.5 - 4 * 1.5)
+    assert python_arm7_example(sim) > 0.7
+    run(sim, 3.0)
+    assert sim.base_pose().position[2] > 0.7 and not sim.fallen

@@ -18,6 +18,9 @@ from g1_sim.physics.model import DEFAULT_POSE, EFFORT_LIMIT, QPOS0, QVEL0, TIMES
 from g1_sim.physics.policy import RATE_HZ, LocomotionPolicy
 
 ARM0: Final = ARM_SDK_JOINTS[0]
+#: The ankles' pitch and roll motors of both legs, motor order, and the share of the stance's integral gain they get.
+ANKLES: Final = (4, 5, 10, 11)
+ANKLE_INTEGRAL_SHARE: Final = 0.2
 #: First arm motor (left shoulder pitch); arm_sdk also drives the three waist motors before it.
 ARM_SDK_FIRST_ARM_JOINT: Final = ARM0 + 3
 N_ARM: Final = len(ARM_SDK_JOINTS)
@@ -190,8 +193,11 @@ class StanceController:
     shifted along the knee-bend family of :class:`~g1_sim.physics.model.StandPoses` to the requested
     pelvis height; waist and arms go to the default pose. Targets move in a straight line at most ``rate`` rad/s, so a
     height change or a takeover from walking is smooth. A slow integral term on legs and waist removes
-    the static error gravity leaves under PD, so the pelvis does not sag. Torques are clipped to the G1
-    effort limits.
+    the static error gravity leaves under PD, so the pelvis does not sag; a fifth of it on the ankles: they
+    carry the body's sway over the feet (an inverted pendulum), and the full integral there lagged the sway
+    and fed it, so a 2 cm sway (a 40 N push for 0.1 s, or what a get-up leaves) grew until the robot fell
+    15-20 s later. Slower, it still takes the stand back to where it booted.
+    Torques are clipped to the G1 effort limits.
 
     Balance (what a plain PD hold lacks when arm_sdk swings the upper body): the centre of mass is kept
     over the feet by leaning both legs about the ankles (ankle pitch/roll one way, hip pitch/roll the
@@ -222,6 +228,7 @@ class StanceController:
         self._arrived_at: np.ndarray | None = None
         self._zeros = np.zeros(NUM_JOINTS)
         self._ki = np.where(np.arange(NUM_JOINTS) < ARM0 + 3, integral_per_s * kp, 0.0)
+        self._ki[list(ANKLES)] *= ANKLE_INTEGRAL_SHARE
         self._i_limit = integral_share * EFFORT_LIMIT
         self._i_term = np.zeros(NUM_JOINTS)
         self.com_gain = com_gain
