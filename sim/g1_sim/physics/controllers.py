@@ -195,8 +195,8 @@ class StanceController:
     height change or a takeover from walking is smooth. A slow integral term on legs and waist removes
     the static error gravity leaves under PD, so the pelvis does not sag; a fifth of it on the ankles: they
     carry the body's sway over the feet (an inverted pendulum), and the full integral there lagged the sway
-    and fed it, so a 2 cm sway (a 40 N push for 0.1 s, or what a get-up leaves) grew until the robot fell
-    15-20 s later. Slower, it still takes the stand back to where it booted.
+    and fed it, so a small sway (a push, or what a get-up leaves) grew until the robot fell
+    (docs/arm_balance.md). Slower, it still takes the stand back to where it booted.
     Torques are clipped to the G1 effort limits.
 
     Balance (what a plain PD hold lacks when arm_sdk swings the upper body): the centre of mass is kept
