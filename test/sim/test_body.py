@@ -278,6 +278,9 @@ def test_freeze_lowstate_stops_lowstate_but_not_sportmodestate(sim: Bridge) -> N
     io = sim.io
     sim.set(faults={"freeze_lowstate": True})
     s0 = sim.status.get()
+    # the reader keeps its newest sample, which may be from before the sim's reset for this test (its tick is that
+    # run's clock): taken first, not judged
+    io.lowstate.read(0.02)
     # a sample published before the freeze may still be delivered on a loaded machine: none published after it is
     # (their ticks are ms of sim time since the robot's reset, so a tick past the robot's clock now is from before
     # the file's reset); the sim's own count below says the same
